@@ -1,0 +1,64 @@
+"""polypack: exact random packs of polydisperse spheres, their size distributions and statistics.
+
+Implements 000_2cedc098acbd866b.txt (random bimodal packs), 001_ad5bae0acea940c4.txt
+(particle-size distributions) and 003_873b69fc71c74cf6.txt (degree of heterogeneity).
+"""
+
+from __future__ import annotations
+
+import os as _os
+
+# A per-user numba cache folder: a shared or read-only site-packages cache breaks caching.
+if "NUMBA_CACHE_DIR" not in _os.environ:
+    _os.environ["NUMBA_CACHE_DIR"] = _os.path.join(
+        _os.environ.get("XDG_CACHE_HOME", _os.path.join(_os.path.expanduser("~"), ".cache")),
+        "polypack",
+        "numba",
+    )
+
+from importlib import import_module as _import_module
+
+from .errors import FormatError, InfeasibleError, InvalidInputError, OverlapError, PolypackError
+from .packing import Packing
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Packing",
+    "PolypackError",
+    "InvalidInputError",
+    "OverlapError",
+    "FormatError",
+    "InfeasibleError",
+    "pack",
+    "shake",
+    "scrm",
+    "io",
+    "psd",
+    "analysis",
+    "generate",
+    "neighbors",
+    "__version__",
+]
+
+# Lazy attributes: subpackages and generator functions are imported on first use, so
+# ``import polypack`` stays fast and numba kernels compile only when needed.
+_LAZY_MODULES = {"io", "psd", "analysis", "generate", "neighbors", "ensemble", "study"}
+_LAZY_FUNCS = {
+    "pack": ("polypack.generate.lubachevsky", "pack"),
+    "shake": ("polypack.generate.shake", "shake"),
+    "scrm": ("polypack.generate.shake", "scrm"),
+}
+
+
+def __getattr__(name):
+    if name in _LAZY_MODULES:
+        return _import_module(f"polypack.{name}")
+    if name in _LAZY_FUNCS:
+        mod, attr = _LAZY_FUNCS[name]
+        return getattr(_import_module(mod), attr)
+    raise AttributeError(f"module 'polypack' has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | _LAZY_MODULES | set(_LAZY_FUNCS))

@@ -1,0 +1,102 @@
+"""Command-line interface: ``polypack COMMAND ...``.
+
+Commands live in modules of :mod:`polypack._cli`; each defines ``register(app)``
+and is discovered automatically, so adding a command never edits this file.
+"""
+
+from __future__ import annotations
+
+import importlib
+import pkgutil
+import sys
+import time
+from typing import Optional
+
+import typer
+
+from . import __version__
+from .errors import PolypackError
+
+app = typer.Typer(
+    name="polypack",
+    help="Exact random packs of polydisperse spheres: size distributions, packing, shaking, statistics.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+
+def _version_callback(value: bool):
+    if value:
+        typer.echo(f"polypack {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(
+    version: Optional[bool] = typer.Option(
+        None, "--version", callback=_version_callback, is_eager=True, help="Print the version and exit."
+    ),
+):
+    """polypack command line."""
+
+
+@app.command()
+def warmup():
+    """Compile every numba kernel once (later runs start instantly) and report the time."""
+    from . import _kernels
+
+    t0 = time.perf_counter()
+    names = []
+    for mod in pkgutil.iter_modules(_kernels.__path__):
+        m = importlib.import_module(f"{_kernels.__name__}.{mod.name}")
+        fn = getattr(m, "warmup", None)
+        if fn is not None:
+            t = time.perf_counter()
+            fn()
+            names.append((mod.name, time.perf_counter() - t))
+    for name, dt in names:
+        typer.echo(f"  {name:<20s} {dt:7.2f} s")
+    typer.echo(f"compiled {len(names)} kernel modules in {time.perf_counter() - t0:.2f} s")
+
+
+def _register_commands():
+    from . import _cli
+
+    for mod in sorted(pkgutil.iter_modules(_cli.__path__), key=lambda m: m.name):
+        m = importlib.import_module(f"{_cli.__name__}.{mod.name}")
+        reg = getattr(m, "register", None)
+        if reg is not None:
+            reg(app)
+
+
+_register_commands()
+
+
+def main(argv=None):
+    """Entry point: polypack errors become one-line messages and exit code 1."""
+    try:
+        app(args=argv, standalone_mode=False)
+    except PolypackError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        sys.exit(1)
+    except KeyboardInterrupt:
+        typer.echo("interrupted", err=True)
+        sys.exit(130)
+    except SystemExit:
+        raise
+    except Exception as exc:  # click usage errors and friends
+        import click
+
+        if isinstance(exc, click.exceptions.ClickException):
+            exc.show()
+            sys.exit(exc.exit_code)
+        if isinstance(exc, click.exceptions.Abort):
+            typer.echo("aborted", err=True)
+            sys.exit(1)
+        raise
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()
