@@ -1,0 +1,152 @@
+"""Shared machinery of the analysis estimators: input checks, realization bookkeeping,
+species-pair maps, JSON conversion.
+
+Every estimator follows the same protocol (freud style): ``compute(packing,
+reset=True)`` returns ``self``; ``reset=False`` adds the packing as one more
+realization of an ensemble, the results are then pooled over realizations and
+standard errors come from the spread between realizations.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+
+import numpy as np
+
+from ..errors import InvalidInputError
+from ..packing import Packing
+
+__all__ = ["PairMap", "Estimator", "check_packing", "check_positive", "check_r_max", "to_jsonable"]
+
+
+def check_packing(packing, min_n=1, what="analysis"):
+    """Return ``packing`` if it is a :class:`~polypack.Packing` with at least ``min_n`` spheres."""
+    if not isinstance(packing, Packing):
+        raise InvalidInputError(
+            f"{what} needs a polypack.Packing, got {type(packing).__name__}; "
+            "build one with polypack.Packing(positions, radii, box)"
+        )
+    if packing.n < min_n:
+        raise InvalidInputError(f"{what} needs a pack with at least {min_n} spheres, got {packing.n}")
+    return packing
+
+
+def check_positive(name, value):
+    """``float(value)`` if finite and > 0, else an :class:`InvalidInputError`."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InvalidInputError(f"{name}={value!r} must be a number > 0") from None
+    if not np.isfinite(v) or v <= 0:
+        raise InvalidInputError(f"{name}={value!r} must be finite and > 0")
+    return v
+
+
+def check_r_max(r_max, box, what="r_max"):
+    """Reject cutoffs beyond half the smallest box length (minimum image no longer unique)."""
+    half = 0.5 * float(np.min(box))
+    if r_max > half * (1 + 1e-12):
+        raise InvalidInputError(
+            f"{what}={r_max:g} exceeds half the smallest box length {half:g}; "
+            "use r_max <= L/2 or a larger pack"
+        )
+
+
+class PairMap(Mapping):
+    """Read-only mapping ``(k, m) -> array`` over species pairs with clear errors.
+
+    Any order of a pair is accepted for symmetric quantities only if it was stored;
+    unknown pairs raise :class:`~polypack.InvalidInputError` naming the allowed pairs.
+    """
+
+    def __init__(self, data, what="partial"):
+        self._d = dict(data)
+        self._what = what
+
+    def __getitem__(self, key):
+        try:
+            k, m = key
+            key = (int(k), int(m))
+        except (TypeError, ValueError):
+            raise InvalidInputError(
+                f"{self._what} key {key!r} must be a species pair (k, m)"
+            ) from None
+        if key not in self._d:
+            allowed = ", ".join(str(p) for p in self._d) or "none (compute first)"
+            raise InvalidInputError(f"unknown species pair {key} for {self._what}; allowed: {allowed}")
+        return self._d[key]
+
+    def __iter__(self):
+        return iter(self._d)
+
+    def __len__(self):
+        return len(self._d)
+
+    def __repr__(self):
+        return f"PairMap({list(self._d)})"
+
+
+def to_jsonable(obj):
+    """Convert numpy arrays/scalars, tuples and pair-keyed dicts to plain JSON data."""
+    if isinstance(obj, np.ndarray):
+        return [to_jsonable(v) for v in obj.tolist()] if obj.dtype.kind == "f" else obj.tolist()
+    if isinstance(obj, (np.floating, float)):
+        v = float(obj)
+        return v if np.isfinite(v) else None
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (np.bool_,)):
+        return bool(obj)
+    if isinstance(obj, Mapping):
+        out = {}
+        for k, v in obj.items():
+            if isinstance(k, tuple):
+                k = "-".join(str(int(x)) for x in k)
+            out[str(k)] = to_jsonable(v)
+        return out
+    if isinstance(obj, (list, tuple)):
+        return [to_jsonable(v) for v in obj]
+    return obj
+
+
+class Estimator:
+    """Base class: realization bookkeeping for ``compute(packing, reset)``."""
+
+    def __init__(self):
+        self._frames = []
+
+    def reset(self):
+        """Forget all accumulated realizations."""
+        self._frames = []
+        return self
+
+    @property
+    def n_realizations(self) -> int:
+        """Number of packings accumulated since the last reset."""
+        return len(self._frames)
+
+    def _require(self):
+        if not self._frames:
+            raise InvalidInputError(f"{type(self).__name__} has no results yet; call compute(packing) first")
+
+    def _stack(self, name):
+        return np.stack([f[name] for f in self._frames])
+
+    def _sum(self, name):
+        return np.sum(self._stack(name), axis=0)
+
+    @staticmethod
+    def _stderr(stack):
+        """Standard error of the mean over realizations (axis 0); NaN for one realization."""
+        p = stack.shape[0]
+        if p < 2:
+            return np.full(stack.shape[1:], np.nan)
+        with np.errstate(invalid="ignore"):
+            return np.nanstd(stack, axis=0, ddof=1) / np.sqrt(p)
+
+    def _axes(self, ax):
+        if ax is None:
+            import matplotlib.pyplot as plt
+
+            _, ax = plt.subplots()
+        return ax
