@@ -13,12 +13,12 @@ from __future__ import annotations
 
 from importlib import import_module as _import_module
 
+from .kfunction import KFunction
 from .rdf import RDF, contact_value, scaled_coordinate
 
-__all__ = ["RDF", "contact_value", "scaled_coordinate"]
+__all__ = ["KFunction", "RDF", "contact_value", "scaled_coordinate"]
 
 _LAZY = {
-    "KFunction": "kfunction",
     "WindowCounts": "windows",
     "lattice_shell_count": "windows",
     "Contacts": "contacts",
