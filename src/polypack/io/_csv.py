@@ -1,0 +1,82 @@
+"""CSV: ``x,y,z,radius,species`` rows after ``#`` comment lines holding the box.
+
+Written as::
+
+    # polypack 0.1.0 packing
+    # n: 2000
+    # box: Lx,Ly,Lz
+    # provenance: {...}
+    x,y,z,radius,species
+    ...
+
+Readable by ``numpy.loadtxt(path, delimiter=",", skiprows=5)`` or
+``pandas.read_csv(path, comment="#")``. Numbers use ``shortest round-trip decimals (``repr``)`` (exact round trip).
+The reader requires the ``box`` line; ``n`` (when present) guards against truncation.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._util import atomic_open
+from ..packing import Packing
+from ._common import (
+    FLOAT,
+    num,
+    as_int_column,
+    build_packing,
+    fail,
+    format_rows,
+    parse_int,
+    parse_provenance,
+    parse_table,
+    provenance_json,
+    read_text,
+)
+
+HEADER = "x,y,z,radius,species"
+
+
+def write(path, packing: Packing) -> None:
+    """Write ``packing`` as CSV with the box in a header comment (atomically)."""
+    from .. import __version__
+
+    box = ",".join(num(v) for v in packing.box)
+    head = (
+        f"# polypack {__version__} packing\n# n: {packing.n}\n# box: {box}\n"
+        f"# provenance: {provenance_json(packing)}\n{HEADER}\n"
+    )
+    p = packing.positions
+    body = format_rows([p[:, 0], p[:, 1], p[:, 2], packing.radii, packing.species], [FLOAT] * 4 + ["%d"], sep=",")
+    with atomic_open(path, "w", encoding="utf-8", newline="\n") as fh:
+        fh.write(head)
+        fh.write(body)
+
+
+def read_with_info(path) -> tuple[Packing, dict]:
+    """Read a polypack CSV file; ``(packing, info)``."""
+    lines = read_text(path).split("\n")[:-1]
+    fields, k = {}, 0
+    while k < len(lines) and lines[k].startswith("#"):
+        key, sep, value = lines[k][1:].partition(":")
+        if sep:
+            fields[key.strip()] = value.strip()
+        k += 1
+    if k >= len(lines) or lines[k].replace(" ", "") != HEADER:
+        got = lines[k][:60] if k < len(lines) else "end of file"
+        raise fail(path, f"expected the column header {HEADER!r} after the comments, found {got!r}")
+    if "box" not in fields:
+        raise fail(path, "no '# box: Lx,Ly,Lz' comment line before the header")
+    box = parse_table([fields["box"]], 3, path, 1, sep=",")[0]
+    rows = [line for line in lines[k + 1 :] if line.strip()]
+    if "n" in fields:
+        n = parse_int(fields["n"], "'# n:' count", path)
+        if len(rows) != n:
+            raise fail(path, f"truncated or padded: header declares {n} rows but the file has {len(rows)}")
+    table = parse_table(rows, 5, path, k + 2, sep=",").reshape(-1, 5)
+    meta, info = {}, {}
+    if "provenance" in fields:
+        meta, info = parse_provenance(fields["provenance"], path)
+    info.update(format="csv")
+    species = as_int_column(table[:, 4], "species", path)
+    return build_packing(path, table[:, :3], table[:, 3], box, species=species, meta=meta), info
