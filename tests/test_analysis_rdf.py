@@ -233,3 +233,19 @@ def test_plot_and_to_dict(bidisperse):
     d = json.loads(json.dumps(g.to_dict()))
     assert d["estimator"] == "RDF" and set(d["partial"]) == {"0-0", "0-1", "1-1"}
     assert len(d["g"]) == len(d["r"]) == 30
+
+
+def test_half_shell_kernel_equals_general_kernel():
+    from polypack._kernels import analysis as kern
+
+    for pk in (rsa(np.random.default_rng(9), 700, 12.0, radii_choices=(0.6, 0.3)), lattice("fcc", 8)):
+        box = np.ascontiguousarray(pk.box)
+        pos = np.ascontiguousarray(pk.positions)
+        sp = np.ascontiguousarray(pk.species, dtype=np.int64)
+        nc = np.array([6, 6, 6], np.int64)
+        off = kern.half_shell_offsets(nc, box / nc, 2.5)
+        assert off.shape[0] > 0
+        fast = kern.pair_histogram_distance(pos, sp, box, pk.n_species, 2.5, 250, nc, off)
+        slow = kern.pair_histogram(pos, np.ascontiguousarray(pk.radii), sp, box, pk.n_species, 2.5, 250, False, nc)
+        assert np.array_equal(fast, slow)
+        assert fast.sum() > 0

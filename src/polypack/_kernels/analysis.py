@@ -117,6 +117,111 @@ def pair_histogram(pos, radii, species, box, nspecies, x_max, nbins, scaled, nce
 
 
 @njit(cache=True)
+def half_shell_offsets(ncell, cl, r_max):
+    """Neighbour-cell offsets for a half-shell sweep: each unordered pair of cells once.
+
+    Offsets within ``R = ceil(r_max / cl)`` cells per axis that are lexicographically
+    positive, minus those whose closest points are farther apart than ``r_max``.
+    Returns ``(M, 3)`` int64, or an empty array when a grid axis is too short for the
+    offsets to be distinct (``ncell < 2 R + 1``).
+    """
+    rr = np.empty(3, np.int64)
+    for k in range(3):
+        rr[k] = int(np.ceil(r_max / cl[k]))
+        if ncell[k] < 2 * rr[k] + 1:
+            return np.empty((0, 3), np.int64)
+    cap = (2 * rr[0] + 1) * (2 * rr[1] + 1) * (2 * rr[2] + 1)
+    out = np.empty((cap, 3), np.int64)
+    m = 0
+    for ox in range(-rr[0], rr[0] + 1):
+        for oy in range(-rr[1], rr[1] + 1):
+            for oz in range(-rr[2], rr[2] + 1):
+                if ox < 0 or (ox == 0 and oy < 0) or (ox == 0 and oy == 0 and oz <= 0):
+                    continue
+                gx = max(abs(ox) - 1, 0) * cl[0]
+                gy = max(abs(oy) - 1, 0) * cl[1]
+                gz = max(abs(oz) - 1, 0) * cl[2]
+                if gx * gx + gy * gy + gz * gz > r_max * r_max:
+                    continue
+                out[m, 0] = ox
+                out[m, 1] = oy
+                out[m, 2] = oz
+                m += 1
+    return out[:m].copy()
+
+
+@njit(cache=True)
+def pair_histogram_distance(pos, species, box, nspecies, r_max, nbins, ncell, offsets):
+    """Centre-distance pair histogram by a half-shell cell sweep (fast path).
+
+    Same result as :func:`pair_histogram` with ``scaled=False``; the spheres are
+    reordered by cell for contiguous memory access and every pair of neighbouring
+    cells is visited once (``offsets`` from :func:`half_shell_offsets`).
+    """
+    n = pos.shape[0]
+    counts = np.zeros((nspecies * nspecies, nbins), np.int64)
+    cell_of, start, order = build_cells(pos, box, ncell)
+    x = np.empty(n)
+    y = np.empty(n)
+    z = np.empty(n)
+    s = np.empty(n, np.int64)
+    for t in range(n):
+        q = order[t]
+        x[t] = pos[q, 0]
+        y[t] = pos[q, 1]
+        z[t] = pos[q, 2]
+        s[t] = species[q]
+    inv_h = nbins / r_max
+    r2max = r_max * r_max
+    nc = ncell[0] * ncell[1] * ncell[2]
+    noff = offsets.shape[0]
+    lx, ly, lz = box[0], box[1], box[2]
+    for c in range(nc):
+        cz = c % ncell[2]
+        cy = (c // ncell[2]) % ncell[1]
+        cx = c // (ncell[1] * ncell[2])
+        a0 = start[c]
+        a1 = start[c + 1]
+        if a0 == a1:
+            continue
+        # pairs inside the cell
+        for i in range(a0, a1):
+            for j in range(i + 1, a1):
+                dx = min_image(x[j] - x[i], lx)
+                dy = min_image(y[j] - y[i], ly)
+                dz = min_image(z[j] - z[i], lz)
+                d2 = dx * dx + dy * dy + dz * dz
+                if d2 < r2max:
+                    b = int(np.sqrt(d2) * inv_h + 1e-9)
+                    if b < nbins:
+                        counts[s[i] * nspecies + s[j], b] += 1
+                        counts[s[j] * nspecies + s[i], b] += 1
+        for o in range(noff):
+            ex = (cx + offsets[o, 0]) % ncell[0]
+            ey = (cy + offsets[o, 1]) % ncell[1]
+            ez = (cz + offsets[o, 2]) % ncell[2]
+            c2 = (ex * ncell[1] + ey) * ncell[2] + ez
+            b0 = start[c2]
+            b1 = start[c2 + 1]
+            for i in range(a0, a1):
+                xi = x[i]
+                yi = y[i]
+                zi = z[i]
+                si = s[i] * nspecies
+                for j in range(b0, b1):
+                    dx = min_image(x[j] - xi, lx)
+                    dy = min_image(y[j] - yi, ly)
+                    dz = min_image(z[j] - zi, lz)
+                    d2 = dx * dx + dy * dy + dz * dz
+                    if d2 < r2max:
+                        b = int(np.sqrt(d2) * inv_h + 1e-9)
+                        if b < nbins:
+                            counts[si + s[j], b] += 1
+                            counts[s[j] * nspecies + s[i], b] += 1
+    return counts
+
+
+@njit(cache=True)
 def window_counts(pos, radii, species, box, nspecies, window, ncell):
     """Number of other sphere centres within ``window[i]`` of each centre, per species.
 
@@ -301,5 +406,8 @@ def warmup():
     nc = np.array([2, 2, 2], np.int64)
     pair_histogram(pos, rad, sp, box, 1, 1.5, 10, False, nc)
     pair_histogram(pos, rad, sp, box, 1, 1.5, 10, True, nc)
+    nc3 = np.array([3, 3, 3], np.int64)
+    off = half_shell_offsets(nc3, box / 3.0, 1.0)
+    pair_histogram_distance(pos, sp, box, 1, 1.0, 10, nc3, off)
     window_counts(pos, rad, sp, box, 1, np.full(8, 1.0), nc)
     nearest_surface(rng.random((4, 3)) * 4.0, pos, rad, box, nc.reshape(1, 3), np.array([0.3]), sp)

@@ -54,6 +54,10 @@ def pair_counts(packing, x_max, nbins, scale="distance"):
         reach_small = 2.0 * x_max * float(np.percentile(rad, 10))
         scaled = True
     nc = choose_cells(box, packing.n, reach_small)
+    if not scaled:
+        off = kern.half_shell_offsets(nc, box / nc, float(x_max))
+        if off.shape[0] > 0:
+            return kern.pair_histogram_distance(pos, sp, box, nspecies, float(x_max), int(nbins), nc, off)
     return kern.pair_histogram(pos, rad, sp, box, nspecies, float(x_max), int(nbins), scaled, nc)
 
 
