@@ -20,6 +20,7 @@ __all__ = ["KFunction", "RDF", "contact_value", "scaled_coordinate"]
 
 _LAZY = {
     "WindowCounts": "windows",
+    "ShellCount": "windows",
     "lattice_shell_count": "windows",
     "Contacts": "contacts",
     "PoreSizes": "pores",
