@@ -384,3 +384,17 @@ def test_interrupted_write_leaves_old_file_and_no_temp(tmp_path, monkeypatch, ex
     assert sorted(p.name for p in tmp_path.iterdir()) == [path.name]
     if ext != ".vtp":
         assert_bitwise_equal(old, pp.io.read(path))
+
+
+def test_written_files_get_normal_permissions(tmp_path):
+    from polypack._util import _umask
+
+    pk = random_pack(np.random.default_rng(31), n=10)
+    fresh = tmp_path / "fresh.gsd"
+    pp.io.write(fresh, pk)
+    assert fresh.stat().st_mode & 0o777 == 0o666 & ~_umask()  # not mkstemp's private 0600
+    kept = tmp_path / "kept.csv"
+    pp.io.write(kept, pk)
+    os.chmod(kept, 0o640)
+    pp.io.write(kept, pk)
+    assert kept.stat().st_mode & 0o777 == 0o640

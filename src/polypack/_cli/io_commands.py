@@ -111,7 +111,7 @@ def format_summary(s: dict) -> str:
     if s["meta"]:
         lines.append("meta")
         for key, value in s["meta"].items():
-            lines.append(f"  {key:<15s}{_short(value)}")
+            lines.append(f"  {key + ':':<15s} {_short(value)}")
     else:
         lines.append("meta             (none)")
     return "\n".join(lines)
