@@ -1,0 +1,268 @@
+"""Tests of the Lubachevsky–Stillinger packer (polypack.pack, polypack._kernels.edmd)."""
+
+import math
+
+import numpy as np
+import pytest
+
+import polypack as pp
+from polypack._kernels import edmd
+from polypack.generate.lubachevsky import carnahan_starling
+
+
+# ---------------------------------------------------------------- collision time
+def _root_by_scan(dr, dv, G, sig0, s_max=50.0, steps=20000):
+    """First s >= 0 where |dr + dv s| - (sig0 + G s) crosses zero from above (bisection)."""
+    s = np.linspace(0.0, s_max, steps)
+    f = np.linalg.norm(dr[None, :] + s[:, None] * dv[None, :], axis=1) - (sig0 + G * s)
+    idx = np.flatnonzero((f[:-1] > 0) & (f[1:] <= 0))
+    if idx.size == 0:
+        return math.inf
+    lo, hi = s[idx[0]], s[idx[0] + 1]
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        fm = np.linalg.norm(dr + mid * dv) - (sig0 + G * mid)
+        if fm > 0:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+def test_pair_time_matches_root_scan():
+    rng = np.random.default_rng(7)
+    checked_finite = 0
+    for _ in range(200):
+        dr = rng.normal(size=3) * 3.0
+        dv = rng.normal(size=3)
+        G = rng.uniform(0.0, 0.6)
+        sig0 = rng.uniform(0.0, 0.9) * np.linalg.norm(dr)
+        s = edmd.pair_time(*dr, *dv, G, sig0)
+        ref = _root_by_scan(dr, dv, G, sig0)
+        if math.isinf(ref):
+            # the scan window is finite: only check that no root exists within it
+            assert s > 49.9
+        else:
+            checked_finite += 1
+            assert s == pytest.approx(ref, rel=1e-7, abs=1e-9)
+    assert checked_finite > 25
+
+
+def test_pair_time_nearly_touching_is_stable():
+    # cancellation-prone case: almost touching, slowly approaching
+    dr = np.array([2.0 + 1e-12, 0.0, 0.0])
+    dv = np.array([-1e-3, 0.0, 0.0])
+    s = edmd.pair_time(*dr, *dv, 0.0, 2.0)
+    assert s == pytest.approx(1e-9, rel=1e-6)
+    # separating without growth: never
+    assert math.isinf(edmd.pair_time(*dr, *(-dv), 0.0, 2.0))
+    # separating slower than the contact distance grows: they meet again
+    assert edmd.pair_time(3.0, 0.0, 0.0, 0.009, 0.0, 0.0, 0.01, 2.0) == pytest.approx(1000.0, rel=1e-12)
+    # touching and closing in the frame of the growing surfaces: collide now
+    assert edmd.pair_time(2.0, 0.0, 0.0, 0.001, 0.0, 0.0, 0.01, 2.0) == 0.0
+
+
+def test_next_event_agrees_with_brute_force_oracle():
+    """Each collision processed by the kernel is the earliest over all pairs and images."""
+    rng = np.random.default_rng(11)
+    for trial in range(3):
+        n = 12
+        side = 7.0
+        x = rng.random((n, 3)) * side
+        v = rng.normal(size=(n, 3))
+        radii = rng.uniform(0.5, 1.5, n)
+        g = 0.05 * radii
+        box = np.full(3, side)
+        state = np.zeros(8)
+        t_stop = 0.24 * side / g.max()
+        checked = 0
+        for step in range(60):
+            edmd._thermalise(v)
+            t = state[0]
+            t_ref, i_ref, j_ref = edmd.next_event_brute(x, v, g, box, t)
+            if not t_ref < t_stop:
+                break
+            params = np.array([t_stop, 1.0, 1e12, 1e9, 1.3 * t_stop, 0.3, 1e9, 0.0])
+            hist = np.zeros((4, 3))
+            edmd.run_chunk(x, v, g, box, state, params, hist)
+            assert state[0] == pytest.approx(t_ref, rel=1e-9, abs=1e-12), (trial, step)
+            checked += 1
+        assert checked >= 20
+
+
+# ------------------------------------------------------------------ no overlaps
+def _bidisperse(n_large, n_small, ratio):
+    r = np.r_[np.full(n_large, 1.0), np.full(n_small, 1.0 / ratio)]
+    sp = np.r_[np.zeros(n_large, int), np.ones(n_small, int)]
+    return r, sp
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_no_overlap_and_exact_fraction_polydisperse(seed):
+    rng = np.random.default_rng(seed)
+    radii = np.exp(rng.uniform(0.0, np.log(4.0), 300))
+    pk = pp.pack(radii, 0.58, seed=seed)
+    assert pk.meta["status"] == "target"
+    assert pk.min_gap() >= 0.0
+    np.testing.assert_array_equal(pk.radii, radii)
+    assert pk.volume_fraction == pytest.approx(0.58, rel=1e-9)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_no_overlap_size_ratio_10(seed):
+    # diameter ratio 1:10, similar volume in both classes
+    radii, sp = _bidisperse(8, 4000, 10.0)
+    pk = pp.pack(radii, 0.6, seed=seed, species=sp)
+    assert pk.meta["status"] == "target"
+    assert pk.min_gap() >= 0.0
+    np.testing.assert_array_equal(pk.species, sp)
+    np.testing.assert_array_equal(pk.radii, radii)
+    assert pk.volume_fraction == pytest.approx(0.6, rel=1e-9)
+
+
+def test_touching_pair_across_boundary_continuation():
+    rng = np.random.default_rng(3)
+    side = 12.0
+    n = 30
+    pos = rng.random((n, 3)) * side
+    radii = np.full(n, 0.5)
+    # make a dilute valid start, then put spheres 0 and 1 in contact across x = 0
+    pos[0] = [0.2, 6.0, 6.0]
+    pos[1] = [side - 0.8, 6.0, 6.0]
+    for k in range(2, n):
+        while True:
+            d = pp.neighbors.minimum_image(pos[:k] - pos[k], np.full(3, side))
+            if np.all(np.linalg.norm(d, axis=1) > 1.05):
+                break
+            pos[k] = rng.random(3) * side
+    start = pp.Packing(pos, radii, side)
+    assert start.min_gap() == pytest.approx(0.0, abs=1e-12)
+    out = pp.pack(start, volume_fraction=0.3, seed=1)
+    assert out.meta["status"] == "target"
+    assert out.min_gap() >= 0.0
+    assert out.volume_fraction == pytest.approx(0.3, rel=1e-9)
+    assert out.meta["continued"] is True
+
+
+def test_continuation_reaches_next_fraction():
+    radii = np.random.default_rng(2).uniform(1.0, 2.0, 400)
+    a = pp.pack(radii, 0.5, seed=1)
+    b = pp.pack(a, 0.56, seed=2)
+    assert b.meta["status"] == "target"
+    assert b.volume_fraction == pytest.approx(0.56, rel=1e-9)
+    assert b.min_gap() >= 0.0
+    np.testing.assert_array_equal(b.radii, radii)
+    assert len(b.meta["history"]) == 2
+    # the start configuration is kept: a tiny step moves spheres very little
+    c = pp.pack(b, 0.5601, seed=3)
+    scale = (0.5601 / 0.56) ** (1 / 3)  # box shrinks by this factor
+    d = pp.neighbors.minimum_image(c.positions * scale - b.positions, b.box)
+    assert np.median(np.linalg.norm(d, axis=1)) < 0.3 * radii.mean()
+
+
+# ----------------------------------------------------------------- physics
+def test_reduced_pressure_matches_carnahan_starling():
+    """Slow growth through φ≈0.45: the collision virial gives the equilibrium fluid pressure."""
+    pk = pp.pack(np.ones(500), 0.42, seed=3, growth_rate=0.05)
+    pk2 = pp.pack(pk, 0.46, seed=4, growth_rate=0.001)
+    h = np.array(pk2.meta["pressure_history"])
+    sel = h[:, 0] > 0.44
+    assert sel.sum() > 50
+    ratio = np.mean(h[sel, 1] / carnahan_starling(h[sel, 0]))
+    assert abs(ratio - 1.0) < 0.02, ratio
+    # an ideal gas value or a virial off by a factor 2 would be far outside
+    assert carnahan_starling(0.45) > 9
+
+
+def test_jamming_density_monodisperse_fast():
+    pk = pp.pack(np.ones(500), "jammed", seed=5, growth_rate=0.02)
+    assert pk.meta["status"] == "jammed"
+    assert 0.63 <= pk.volume_fraction <= 0.65
+    assert pk.meta["reduced_pressure"] > 1e6
+    assert pk.meta["jamming_estimate"] == pytest.approx(pk.volume_fraction, rel=1e-4)
+    assert pk.min_gap() >= 0.0
+
+
+@pytest.mark.slow
+def test_jamming_density_rises_as_growth_slows():
+    phis = []
+    for gamma in (0.1, 0.02, 0.004):
+        vals = [pp.pack(np.ones(500), "jammed", seed=s, growth_rate=gamma).volume_fraction for s in (1, 2)]
+        phis.append(np.mean(vals))
+    assert all(0.625 <= p <= 0.65 for p in phis), phis
+    assert phis[0] < phis[1] < phis[2], phis
+    assert 0.63 <= phis[1] <= 0.65
+
+
+def test_seed000_bimodal_pack_keeps_species():
+    # seed 000: N=2000, size ratio λ=0.313, volume ratio ξ=c2/c1=0.333 -> 168 large spheres
+    n1, n = 168, 2000
+    radii = np.r_[np.full(n1, 1.0), np.full(n - n1, 0.313)]
+    sp = np.r_[np.zeros(n1, int), np.ones(n - n1, int)]
+    pk = pp.pack(radii, 0.6, seed=1, species=sp)
+    assert pk.meta["status"] == "target"
+    assert pk.volume_fraction == pytest.approx(0.6, rel=1e-9)
+    np.testing.assert_array_equal(pk.species_counts, [168, 1832])
+    c1, c2 = pk.species_fractions
+    assert c2 / c1 == pytest.approx(0.333, abs=0.002)
+    assert pk.min_gap() >= 0.0
+
+
+class _SizeSetLike:
+    def __init__(self, radii, species):
+        self.radii = radii
+        self.species = species
+
+
+def test_sizeset_duck_typing_and_meta():
+    s = _SizeSetLike(np.r_[np.full(20, 2.0), np.full(200, 1.0)], np.r_[np.zeros(20, int), np.ones(200, int)])
+    pk = pp.pack(s, 0.5, seed=9)
+    np.testing.assert_array_equal(pk.species, s.species)
+    m = pk.meta
+    for key in ("status", "collisions", "events", "wall_time", "collisions_per_second", "pressure_history",
+                "jamming_estimate", "growth_rate", "seed", "min_gap", "shrink_factor"):
+        assert key in m
+    assert m["seed"]["entropy"] == 9
+    again = pp.pack(s, 0.5, seed=9)
+    np.testing.assert_array_equal(again.positions, pk.positions)
+
+
+def test_budgets():
+    pk = pp.pack(np.ones(300), 0.6, seed=1, max_collisions=5000)
+    assert pk.meta["status"] == "collision_budget"
+    assert pk.meta["collisions"] == 5000
+    assert pk.volume_fraction < 0.6
+    assert pk.min_gap() >= 0.0
+
+
+def test_infeasible_target_ends_jammed():
+    pk = pp.pack(np.ones(200), 0.8, seed=1, max_pressure=1e4)
+    assert pk.meta["status"] == "jammed"
+    assert 0.55 < pk.volume_fraction < 0.66
+    assert pk.min_gap() >= 0.0
+
+
+# ----------------------------------------------------------------- errors
+@pytest.mark.parametrize(
+    "args, kwargs, err",
+    [
+        ((np.ones(1),), {}, pp.InvalidInputError),
+        ((np.array([1.0, -1.0, 1.0]),), {}, pp.InvalidInputError),
+        ((np.array([1.0, np.nan, 1.0]),), {}, pp.InvalidInputError),
+        ((np.ones(10), 1.2), {}, pp.InvalidInputError),
+        ((np.ones(10), "max"), {}, pp.InvalidInputError),
+        ((np.ones(10),), {"bogus": 1}, pp.InvalidInputError),
+        ((np.ones(10),), {"growth_rate": -1.0}, pp.InvalidInputError),
+        ((np.r_[10.0, np.ones(5)], 0.5), {}, pp.InfeasibleError),
+        ((10,), {}, pp.InvalidInputError),
+    ],
+)
+def test_errors(args, kwargs, err):
+    with pytest.raises(err):
+        pp.pack(*args, seed=1, **kwargs)
+
+
+def test_error_below_continuation_fraction():
+    pk = pp.pack(np.ones(100), 0.4, seed=1)
+    with pytest.raises(pp.InvalidInputError, match="below"):
+        pp.pack(pk, 0.3)
