@@ -1,0 +1,43 @@
+"""Particle-size distributions: grading curves, size classes, representativity, Hazen descriptors.
+
+Implements 001_ad5bae0acea940c4.txt (models of particle size distribution: inverse
+sampling Eqs. (1)-(4), classes Eqs. (6)-(11), cumulative beta model Eqs. (12)-(17), Hazen
+coefficients Eqs. (18)-(20), regression coefficient Eq. (21), accessible domain Fig. 8)
+and the bimodal description (size ratio λ, volume ratio ξ) of 000_2cedc098acbd866b.txt.
+
+Conventions: models are written in particle **diameters** ``d`` (as seed 001);
+``SizeSet.radii = d / 2``. Volume-based quantities use ``V ∝ d**dim`` with ``dim=3``
+(spheres) by default and ``dim=2`` (disks, seed 001's simulations) on request.
+``SizeSet.species`` is the class index (0 = finest) for :func:`discretize` and the mode
+index for mixtures (:class:`Bimodal`: 0 = large/coarse, 1 = small, i.e. seed 000's modes 1, 2).
+"""
+
+from .classes import ClassCounts, class_bounds, class_counts, class_volume_fractions, discretize
+from .descriptors import describe, hazen, moment, polydispersity, regression_coefficient, skewness
+from .domain import AccessibleDomain, accessible_domain
+from .models import (
+    Bimodal,
+    CumulativeBeta,
+    LogNormal,
+    Mixture,
+    Monodisperse,
+    Normal,
+    SieveTable,
+    SizeDistribution,
+    UniformSize,
+    UniformVolume,
+    ratio_from_span,
+    span_from_ratio,
+    uv_cdf,
+    uv_ppf,
+)
+from .plots import plot_class_histogram, plot_grading, plot_hazen_vs_span
+from .sizeset import SizeSet
+
+__all__ = [
+    "SizeDistribution", "CumulativeBeta", "UniformVolume", "UniformSize", "LogNormal", "Normal",
+    "Monodisperse", "Mixture", "Bimodal", "SieveTable", "ratio_from_span", "span_from_ratio", "uv_cdf", "uv_ppf",
+    "SizeSet", "class_bounds", "class_volume_fractions", "class_counts", "ClassCounts", "discretize",
+    "hazen", "regression_coefficient", "moment", "polydispersity", "skewness", "describe",
+    "accessible_domain", "AccessibleDomain", "plot_grading", "plot_class_histogram", "plot_hazen_vs_span",
+]
