@@ -398,3 +398,23 @@ def test_written_files_get_normal_permissions(tmp_path):
     os.chmod(kept, 0o640)
     pp.io.write(kept, pk)
     assert kept.stat().st_mode & 0o777 == 0o640
+
+
+def test_vtp_reads_in_vtk_when_available(tmp_path):
+    """ParaView's own reader (vtkXMLPolyDataReader); VTK is not a dependency, so optional."""
+    vtk = pytest.importorskip("vtk")
+    from vtk.util.numpy_support import vtk_to_numpy
+
+    pk = random_pack(np.random.default_rng(16), n=40)
+    path = tmp_path / "p.vtp"
+    pp.io.write(path, pk)
+    reader = vtk.vtkXMLPolyDataReader()
+    reader.SetFileName(str(path))
+    reader.Update()
+    assert reader.GetErrorCode() == 0
+    data = reader.GetOutput()
+    assert data.GetNumberOfPoints() == pk.n == data.GetNumberOfVerts()
+    assert np.array_equal(vtk_to_numpy(data.GetPoints().GetData()), pk.positions)
+    assert np.array_equal(vtk_to_numpy(data.GetPointData().GetArray("radius")), pk.radii)
+    assert np.array_equal(vtk_to_numpy(data.GetPointData().GetArray("species")), pk.species)
+    assert np.array_equal(vtk_to_numpy(data.GetFieldData().GetArray("box")).ravel(), pk.box)

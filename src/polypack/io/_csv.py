@@ -16,8 +16,6 @@ The reader requires the ``box`` line; ``n`` (when present) guards against trunca
 
 from __future__ import annotations
 
-import numpy as np
-
 from .._util import atomic_open
 from ..packing import Packing
 from ._common import (
