@@ -284,26 +284,37 @@ def window_counts(pos, radii, species, box, nspecies, window, ncell):
 
 
 @njit(cache=True)
-def nearest_surface(points, pos, radii, box, ncell, r_max_radius, order_by_radius_cells):
+def _axis_gap(o, f, cl):
+    """Distance along one axis from a point at offset ``f`` in its cell to the cell ``o`` away."""
+    if o > 0:
+        return o * cl - f
+    if o < 0:
+        return (-o - 1) * cl + f
+    return 0.0
+
+
+@njit(cache=True)
+def nearest_surface(points, pos, radii, box, ncell, r_max_radius, cls):
     """Signed distance from each test point to the nearest sphere *surface*.
 
     ``min_j (|p - x_j| - r_j)`` under minimum image, exact for polydisperse spheres.
-    Size-aware search: the spheres are split into radius classes (see
-    ``order_by_radius_cells``); within a class a cell grid is scanned in growing
-    shells until no unscanned cell can hold a surface closer than the best one
-    found (a cell at distance ``D`` from the point holds surfaces no closer than
-    ``D - r_max`` of that class).
+    Size-aware search: the spheres are split into radius classes ``cls``; every
+    class has its own cell grid (``ncell[c]``, cells at least as wide as the class
+    diameter) and is scanned in growing cubic shells of cells around the point. A
+    cell is skipped when its box is farther from the point than ``best + r_max``
+    of the class (no surface inside can be closer than ``best``), and the shells stop
+    when a whole shell is that far.
 
     Parameters
     ----------
-    points : (M, 3) float64
+    points : (M, 3) float64, inside ``[0, L)``
     pos, radii : sphere centres and radii
     box : (3,) float64
     ncell : (C, 3) int64
         Cells per axis for each radius class.
     r_max_radius : (C,) float64
         Largest radius in each class.
-    order_by_radius_cells : (N,) int64
+    cls : (N,) int64
         Class index of each sphere.
 
     Returns
@@ -314,24 +325,46 @@ def nearest_surface(points, pos, radii, box, ncell, r_max_radius, order_by_radiu
     m = points.shape[0]
     nclass = ncell.shape[0]
     n = pos.shape[0]
-    out = np.full(m, np.inf)
-    # per-class cell structures, concatenated
-    cls = order_by_radius_cells
-    starts = []
-    orders = []
-    idxs = []
+    out = np.empty(m, np.float64)
+    # per-class cell lists, concatenated: sphere data sorted by (class, cell)
+    cbase = np.zeros(nclass + 1, np.int64)  # offset of each class in the sphere arrays
+    sbase = np.zeros(nclass + 1, np.int64)  # offset of each class in the start array
+    for i in range(n):
+        cbase[cls[i] + 1] += 1
     for c in range(nclass):
-        sel = np.flatnonzero(cls == c)
-        sub = np.empty((sel.shape[0], 3), np.float64)
-        for t in range(sel.shape[0]):
-            for k in range(3):
-                sub[t, k] = pos[sel[t], k]
+        cbase[c + 1] += cbase[c]
+        sbase[c + 1] = sbase[c] + ncell[c, 0] * ncell[c, 1] * ncell[c, 2] + 1
+    sx = np.empty(n)
+    sy = np.empty(n)
+    sz = np.empty(n)
+    sr = np.empty(n)
+    starts = np.empty(sbase[nclass], np.int64)
+    for c in range(nclass):
+        cnt = cbase[c + 1] - cbase[c]
+        sub = np.empty((cnt, 3), np.float64)
+        idx = np.empty(cnt, np.int64)
+        t = 0
+        for i in range(n):
+            if cls[i] == c:
+                sub[t, 0] = pos[i, 0]
+                sub[t, 1] = pos[i, 1]
+                sub[t, 2] = pos[i, 2]
+                idx[t] = i
+                t += 1
         _, st, od = build_cells(sub, box, ncell[c])
-        starts.append(st)
-        orders.append(od)
-        idxs.append(sel)
+        for q in range(st.shape[0]):
+            starts[sbase[c] + q] = st[q] + cbase[c]
+        for q in range(cnt):
+            j = idx[od[q]]
+            sx[cbase[c] + q] = pos[j, 0]
+            sy[cbase[c] + q] = pos[j, 1]
+            sz[cbase[c] + q] = pos[j, 2]
+            sr[cbase[c] + q] = radii[j]
     for p in range(m):
         best = np.inf
+        qx = points[p, 0]
+        qy = points[p, 1]
+        qz = points[p, 2]
         for c in range(nclass):
             nc0 = ncell[c, 0]
             nc1 = ncell[c, 1]
@@ -339,57 +372,71 @@ def nearest_surface(points, pos, radii, box, ncell, r_max_radius, order_by_radiu
             cl0 = box[0] / nc0
             cl1 = box[1] / nc1
             cl2 = box[2] / nc2
-            clmin = min(cl0, min(cl1, cl2))
-            st = starts[c]
-            od = orders[c]
-            sel = idxs[c]
+            sb = sbase[c]
             rmax = r_max_radius[c]
-            px = int(np.floor(points[p, 0] / cl0)) % nc0
-            py = int(np.floor(points[p, 1] / cl1)) % nc1
-            pz = int(np.floor(points[p, 2] / cl2)) % nc2
-            maxshell = max(nc0, max(nc1, nc2))
+            px = min(int(qx / cl0), nc0 - 1)
+            py = min(int(qy / cl1), nc1 - 1)
+            pz = min(int(qz / cl2), nc2 - 1)
+            fx = qx - px * cl0
+            fy = qy - py * cl1
+            fz = qz - pz * cl2
+            h0 = (nc0 - 1) // 2
+            h1 = (nc1 - 1) // 2
+            h2 = (nc2 - 1) // 2
+            hmax = max(h0, max(h1, h2))
+            # offsets beyond h_k would revisit cells (periodic); the far half is covered
+            # by the negative offsets down to -(nc - 1 - h)
             shell = 0
-            while shell <= maxshell:
-                # lower bound on the distance to any centre in shell >= this one
-                dmin_centre = (shell - 1) * clmin
-                if dmin_centre > 0.0 and dmin_centre - rmax >= best:
-                    break
-                lx = -shell
-                hx = shell
-                ly = -shell
-                hy = shell
-                lz = -shell
-                hz = shell
-                if 2 * shell + 1 > nc0:
-                    lx = -(nc0 // 2)
-                    hx = lx + nc0 - 1
-                if 2 * shell + 1 > nc1:
-                    ly = -(nc1 // 2)
-                    hy = ly + nc1 - 1
-                if 2 * shell + 1 > nc2:
-                    lz = -(nc2 // 2)
-                    hz = lz + nc2 - 1
+            while True:
+                lx = max(-shell, -(nc0 - 1 - h0))
+                hx = min(shell, h0)
+                ly = max(-shell, -(nc1 - 1 - h1))
+                hy = min(shell, h1)
+                lz = max(-shell, -(nc2 - 1 - h2))
+                hz = min(shell, h2)
+                any_close = False
+                lim = best + rmax
                 for ox in range(lx, hx + 1):
+                    gx = _axis_gap(ox, fx, cl0)
                     onx = ox == -shell or ox == shell
                     for oy in range(ly, hy + 1):
+                        gy = _axis_gap(oy, fy, cl1)
                         ony = oy == -shell or oy == shell
                         for oz in range(lz, hz + 1):
-                            onz = oz == -shell or oz == shell
-                            if not (onx or ony or onz):
+                            if not (onx or ony or oz == -shell or oz == shell):
                                 continue
-                            x = (px + ox) % nc0
-                            y = (py + oy) % nc1
-                            z = (pz + oz) % nc2
-                            cidx = (x * nc1 + y) * nc2 + z
-                            for s in range(st[cidx], st[cidx + 1]):
-                                j = sel[od[s]]
-                                dx = min_image(pos[j, 0] - points[p, 0], box[0])
-                                dy = min_image(pos[j, 1] - points[p, 1], box[1])
-                                dz = min_image(pos[j, 2] - points[p, 2], box[2])
-                                dd = np.sqrt(dx * dx + dy * dy + dz * dz) - radii[j]
+                            gz = _axis_gap(oz, fz, cl2)
+                            g2 = gx * gx + gy * gy + gz * gz
+                            if lim <= 0.0 or g2 >= lim * lim:
+                                continue
+                            any_close = True
+                            x = px + ox
+                            if x < 0:
+                                x += nc0
+                            elif x >= nc0:
+                                x -= nc0
+                            y = py + oy
+                            if y < 0:
+                                y += nc1
+                            elif y >= nc1:
+                                y -= nc1
+                            z = pz + oz
+                            if z < 0:
+                                z += nc2
+                            elif z >= nc2:
+                                z -= nc2
+                            cidx = sb + (x * nc1 + y) * nc2 + z
+                            for s in range(starts[cidx], starts[cidx + 1]):
+                                dx = min_image(sx[s] - qx, box[0])
+                                dy = min_image(sy[s] - qy, box[1])
+                                dz = min_image(sz[s] - qz, box[2])
+                                dd = np.sqrt(dx * dx + dy * dy + dz * dz) - sr[s]
                                 if dd < best:
                                     best = dd
-                if 2 * shell + 1 >= nc0 and 2 * shell + 1 >= nc1 and 2 * shell + 1 >= nc2:
+                                    lim = best + rmax
+                if shell > 0 and not any_close:
+                    break
+                if shell >= hmax + 1:
                     break
                 shell += 1
         out[p] = best

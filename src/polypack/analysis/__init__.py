@@ -24,6 +24,7 @@ _LAZY = {
     "lattice_shell_count": "windows",
     "Contacts": "contacts",
     "PoreSizes": "pores",
+    "nearest_surface_distance": "pores",
     "theory": None,
 }
 

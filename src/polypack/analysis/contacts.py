@@ -113,7 +113,10 @@ class Contacts(Estimator):
 
     def _mean(self, name):
         self._require()
-        return np.nanmean(self._stack(name), axis=0)
+        st = self._stack(name)
+        if np.all(np.isnan(st)):
+            return np.full(st.shape[1:], np.nan)
+        return np.nanmean(st, axis=0)
 
     @property
     def coordination(self) -> float:

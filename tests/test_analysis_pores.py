@@ -1,0 +1,91 @@
+"""Pore sizes: exact nearest surfaces, Boolean-model exclusion probabilities, DOH fits."""
+
+import json
+
+import numpy as np
+import pytest
+
+import polypack as pp
+from polypack.analysis.pores import doh_normalized, doh_seed, nearest_surface_distance
+from polypack.errors import InvalidInputError
+
+
+def brute(pk, pts):
+    dv = pk.positions[None] - pts[:, None]
+    dv -= pk.box * np.round(dv / pk.box)
+    return (np.sqrt((dv**2).sum(-1)) - pk.radii[None]).min(1)
+
+
+@pytest.mark.parametrize("ratio, n, L", [(1.0, 2000, 15.0), (10.0, 3000, 20.0), (30.0, 1500, 12.0)])
+def test_nearest_surface_is_exact(ratio, n, L):
+    rng = np.random.default_rng(int(ratio))
+    rad = 1.2 * np.exp(rng.uniform(np.log(1 / ratio), 0, n))
+    pk = pp.Packing(rng.random((n, 3)) * L, rad, L)
+    pts = rng.random((2000, 3)) * L
+    assert np.array_equal(nearest_surface_distance(pk, pts), brute(pk, pts))
+    # points outside [0, L) are folded in
+    assert np.allclose(nearest_surface_distance(pk, pts + L), brute(pk, pts))
+
+
+def _boolean(rng, counts, radii, L):
+    pos = rng.random((sum(counts), 3)) * L
+    rad = np.concatenate([np.full(c, r) for c, r in zip(counts, radii)])
+    sp = np.concatenate([np.full(c, k) for k, c in enumerate(counts)])
+    return pp.Packing(pos, rad, L, species=sp)
+
+
+@pytest.mark.parametrize("counts, radii", [((4000,), (1e-4,)), ((2000,), (0.4,)), ((600, 3000), (0.8, 0.25))])
+def test_exclusion_probability_of_boolean_models(counts, radii):
+    """Fixed-N uniform centres: E_V(r) = prod_k (1 - 4/3 pi (r + a_k)^3 / V)^N_k."""
+    rng = np.random.default_rng(sum(counts))
+    L = 12.0
+    p = pp.analysis.PoreSizes(n_points=4000, seed=3)
+    for _ in range(40):  # the pattern fluctuates too: average over realizations
+        p.compute(_boolean(rng, counts, radii, L), reset=False)
+    V = L**3
+    theory = np.prod([(1 - 4 / 3 * np.pi * (p.r + a) ** 3 / V) ** c for c, a in zip(counts, radii)], axis=0)
+    err = p.exclusion_err
+    assert np.all(np.abs(p.exclusion - theory) < 5 * err + 2e-4)
+    assert np.all(err < 0.01)
+    e0 = np.prod([(1 - 4 / 3 * np.pi * a**3 / V) ** c for c, a in zip(counts, radii)])
+    assert p.void_fraction == pytest.approx(e0, abs=5 * err[0] + 2e-4)
+    assert np.allclose(p.survival, p.exclusion / p.void_fraction)
+    if len(counts) == 1 and radii[0] < 1e-3:
+        lam = counts[0] / V  # Poisson limit exp(-lambda 4 pi r^3 / 3)
+        assert np.all(np.abs(p.exclusion - np.exp(-lam * 4 / 3 * np.pi * p.r**3)) < 0.01)
+
+
+def test_doh_fits_recover_gaussian_and_document_printed_form():
+    rng = np.random.default_rng(0)
+    p = pp.analysis.PoreSizes(n_points=1000, seed=1, r0=2.0)
+    # inject void distances whose pore-size distribution is Gaussian: mean b r0, sd a r0
+    d = np.sort(rng.normal(0.6, 0.12, 400_000) * 2.0)
+    p._frames = [{"void": d[d > 0], "n": d.size, "r0": 2.0}]
+    f = p.fit
+    assert f["normalized"]["a"] == pytest.approx(0.12, rel=0.02)
+    assert f["normalized"]["b"] == pytest.approx(0.6, rel=0.01)
+    assert f["normalized"]["residual_rms"] < 0.005
+    assert 0 < f["normalized"]["a_err"] < 0.01
+    # the printed form is 1 - erf = 2 x survival: it cannot fit a survival starting at 1
+    assert f["seed"]["residual_rms"] > 5 * f["normalized"]["residual_rms"]
+    x = np.linspace(-1, 3, 50)
+    assert np.allclose(doh_seed(x, 0.3, 1.0), 2 * doh_normalized(x, 0.3, 1.0))
+
+
+def test_seed_reproducible_accumulate_and_report():
+    rng = np.random.default_rng(5)
+    pk = _boolean(rng, (500,), (0.5,), 10.0)
+    a = pp.analysis.PoreSizes(n_points=5000, seed=7).compute(pk)
+    b = pp.analysis.PoreSizes(n_points=5000, seed=7).compute(pk)
+    assert np.array_equal(a.pore_distances, b.pore_distances)
+    a.compute(pk, reset=False)
+    assert a.n_realizations == 2
+    assert not np.array_equal(a.pore_distances, b.pore_distances)  # second child seed
+    assert np.all(np.isfinite(a.survival_err))
+    d = json.loads(json.dumps(a.to_dict()))
+    assert {"seed", "normalized", "r0"} <= set(d["fit"]) and d["void_fraction"] > 0
+    assert a.plot() is not None
+    with pytest.raises(InvalidInputError, match="n_points"):
+        pp.analysis.PoreSizes(n_points=10)
+    with pytest.raises(InvalidInputError, match="at least 1 spheres"):
+        pp.analysis.PoreSizes(n_points=1000).compute(pp.Packing(np.zeros((0, 3)), np.zeros(0), 5.0))
