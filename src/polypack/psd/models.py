@@ -67,13 +67,18 @@ def _p_grid(extra=()):
     return g
 
 
+def _show(value):
+    """repr of a user value without numpy's type wrapper (``1.5`` rather than ``np.float64(1.5)``)."""
+    return repr(value.item() if isinstance(value, np.generic) else value)
+
+
 def _finite_positive(name, value):
     try:
         v = float(value)
     except (TypeError, ValueError):
-        raise InvalidInputError(f"{name}={value!r}: must be a positive finite number") from None
+        raise InvalidInputError(f"{name}={_show(value)}: must be a positive finite number") from None
     if not math.isfinite(v) or v <= 0.0:
-        raise InvalidInputError(f"{name}={value!r}: must be a positive finite number")
+        raise InvalidInputError(f"{name}={_show(value)}: must be a positive finite number")
     return v
 
 
@@ -101,7 +106,7 @@ def _bounds_from(span, d_min, d_max, default_d_max=1.0):
         except (TypeError, ValueError):
             raise InvalidInputError(f"span={span!r}: must be a number in (0, 1)") from None
         if not (0.0 < s < 1.0):
-            raise InvalidInputError(f"span={span!r}: must lie in the open interval (0, 1) (Eq. (17) of 001)")
+            raise InvalidInputError(f"span={_show(span)}: must lie in the open interval (0, 1) (Eq. (17) of 001)")
         if d_min is not None and d_max is not None:
             raise InvalidInputError("give at most two of span, d_min, d_max")
         r = ratio_from_span(s)
@@ -117,7 +122,7 @@ def _bounds_from(span, d_min, d_max, default_d_max=1.0):
         d_min = _finite_positive("d_min", d_min)
         d_max = _finite_positive("d_max", d_max)
     if not d_min < d_max:
-        raise InvalidInputError(f"d_min={d_min!r} must be smaller than d_max={d_max!r}")
+        raise InvalidInputError(f"d_min={_show(d_min)} must be smaller than d_max={_show(d_max)}")
     return float(d_min), float(d_max)
 
 
@@ -589,7 +594,7 @@ class LogNormal(SizeDistribution):
         lo = self.median * math.exp(-3 * self.sigma) if d_min is None else _finite_positive("d_min", d_min)
         hi = self.median * math.exp(3 * self.sigma) if d_max is None else _finite_positive("d_max", d_max)
         if not lo < hi:
-            raise InvalidInputError(f"d_min={lo!r} must be smaller than d_max={hi!r}")
+            raise InvalidInputError(f"d_min={_show(lo)} must be smaller than d_max={_show(hi)}")
         super().__init__(lo, hi, dim)
         mu = math.log(self.median)
         shift = self.dim * self.sigma**2
@@ -670,7 +675,7 @@ class Normal(SizeDistribution):
         lo = _finite_positive("d_min", lo)
         hi = _finite_positive("d_max", hi)
         if not lo < hi:
-            raise InvalidInputError(f"d_min={lo!r} must be smaller than d_max={hi!r}")
+            raise InvalidInputError(f"d_min={_show(lo)} must be smaller than d_max={_show(hi)}")
         super().__init__(lo, hi, dim)
         self._law = stats.truncnorm((lo - self.mean_) / self.std, (hi - self.mean_) / self.std,
                                     loc=self.mean_, scale=self.std)
@@ -921,7 +926,7 @@ class Bimodal(Mixture):
     def __init__(self, size_ratio=0.313, volume_ratio=0.333, d_large=1.0, spread=None, dim=3):
         lam = _finite_positive("size_ratio", size_ratio)
         if lam > 1.0:
-            raise InvalidInputError(f"size_ratio={size_ratio!r}: must satisfy 0 < size_ratio <= 1 (λ = a2/a1)")
+            raise InvalidInputError(f"size_ratio={_show(size_ratio)}: must satisfy 0 < size_ratio <= 1 (λ = a2/a1)")
         xi = _finite_positive("volume_ratio", volume_ratio)
         dl = _finite_positive("d_large", d_large)
         self.size_ratio, self.volume_ratio, self.d_large, self.spread = lam, xi, dl, spread

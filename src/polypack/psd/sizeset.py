@@ -53,7 +53,7 @@ class SizeSet:
         bad = ~np.isfinite(r) | (r <= 0)
         if np.any(bad):
             i = int(np.argmax(bad))
-            raise InvalidInputError(f"radius {r[i]!r} (index {i}): radii must be positive and finite")
+            raise InvalidInputError(f"radius {float(r[i])!r} (index {i}): radii must be positive and finite")
         if species is None:
             s = np.zeros(r.size, np.int64)
         else:
@@ -163,7 +163,7 @@ class SizeSet:
         with atomic_open(path, "w", newline="") as fh:
             fh.write("radius,diameter,species\n")
             for r, s in zip(self.radii, self.species):
-                fh.write(f"{r!r},{2.0 * r!r},{int(s)}\n")
+                fh.write(f"{float(r)!r},{float(2.0 * r)!r},{int(s)}\n")
         with atomic_open(rpath, "w") as fh:
             json.dump(_jsonable({"dim": self.dim, **self.report}), fh, indent=2, sort_keys=False)
             fh.write("\n")
