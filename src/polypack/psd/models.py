@@ -405,7 +405,7 @@ class CumulativeBeta(SizeDistribution):
         Particle volume ``V ~ d**dim`` used for number <-> volume conversions.
     """
 
-    name = "cb"
+    name = "cumulative_beta"
 
     def __init__(self, a=1.0, b=1.0, span=None, d_min=None, d_max=None, dim=3):
         self.a = _finite_positive("a", a)
@@ -446,7 +446,7 @@ class UniformVolume(SizeDistribution):
         F^{-1}(y) = (d_min**-2 - y (d_min**-2 - d_max**-2))**(-1/2)
     """
 
-    name = "uniform-volume"
+    name = "uniform_volume"
 
     def __init__(self, d_min=None, d_max=None, span=None, dim=3):
         lo, hi = _bounds_from(span, d_min, d_max)
@@ -531,7 +531,7 @@ class UniformSize(SizeDistribution):
     model is the 2D, ``d_min -> 0`` limit of this law.
     """
 
-    name = "uniform-size"
+    name = "uniform_size"
     basis = "number"
 
     def __init__(self, d_min=None, d_max=None, span=None, dim=3):

@@ -65,7 +65,11 @@ def plot_class_histogram(sizeset, ax=None):
     ax.set_xlabel("class / species")
     ax.set_ylabel("number of particles")
     ax2 = ax.twinx()
-    ax2.plot(k, vol / vol.sum(), "o-", color="C1", label="volume fraction")
+    ax2.plot(k, vol / vol.sum(), "o-", color="C1", label="volume fraction (set)")
+    target = sizeset.report.get("classes", {}).get("volume_fractions")
+    if target is not None and len(target) == counts.size:
+        ax2.plot(k, target, "x", color="k", label="f_v (model, Eq. (6))")
+        ax2.legend(loc="upper center", fontsize="small")
     ax2.set_ylabel("volume fraction")
     ax2.set_ylim(0, None)
     return ax
