@@ -301,8 +301,9 @@ class RDF(Estimator):
             for k in range(ns):
                 for m in range(k, ns):
                     x = self.r if coordinate == "r" else self.R(k, m)
+                    keep = x >= 0
                     lab = f"$g_{{{k}{m}}}$"
-                    ax.plot(x, part[(k, m)], lw=1.0, label=lab)
+                    ax.plot(x[keep], part[(k, m)][keep], lw=1.0, label=lab)
         xl = {"r": "r / (a_i + a_j)" if self.scale == "contact" else "r", "R": "$R_{km}$"}[coordinate]
         ax.set_xlabel(xl)
         ax.set_ylabel("g")

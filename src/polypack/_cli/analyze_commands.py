@@ -1,0 +1,166 @@
+"""``polypack analyze``: statistical descriptors of a packing file (JSON + plots)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+
+def analyze_packing(
+    pk,
+    rdf=True,
+    partial=True,
+    kfunc=True,
+    windows=True,
+    contacts=True,
+    pores=True,
+    r_max=3.0,
+    dr=0.01,
+    window_radius=2.5,
+    tolerance=0.01,
+    n_points=200_000,
+    seed=1,
+    plots=None,
+):
+    """Run the selected estimators on ``pk``; returns plain JSON-able data.
+
+    ``r_max`` and ``dr`` are in units of the number-mean diameter; ``r_max`` is
+    capped at half the smallest box length (the cap is reported).
+    """
+    import numpy as np
+
+    from .. import analysis
+    from ..analysis._base import to_jsonable
+    from ..errors import InvalidInputError
+
+    d_mean = float(np.mean(2 * pk.radii))
+    r_abs = r_max * d_mean
+    notes = []
+    half = 0.5 * float(np.min(pk.box))
+    if r_abs > half:
+        notes.append(f"r_max {r_abs:g} capped at half the box length {half:g}")
+        r_abs = half
+    step = dr * d_mean
+    out = {
+        "n": pk.n,
+        "box": pk.box.tolist(),
+        "volume_fraction": pk.volume_fraction,
+        "species_counts": pk.species_counts.tolist(),
+        "mean_diameter": d_mean,
+        "notes": notes,
+    }
+    figs = {}
+    if rdf or partial:
+        g = analysis.RDF(r_max=r_abs, dr=step).compute(pk)
+        out["rdf"] = g.to_dict()
+        vals, errs = analysis.contact_value(pk, return_error=True)
+        ns = pk.n_species
+        out["contact_values"] = to_jsonable(
+            {(k, m): {"value": vals[(k, m)], "error": errs[(k, m)]} for k in range(ns) for m in range(k, ns)}
+        )
+        figs["rdf"] = lambda ax: g.plot(ax=ax, partials=partial)
+        if partial and ns > 1:
+            figs["rdf_partial_R"] = lambda ax: g.plot(ax=ax, coordinate="R")
+    if kfunc:
+        k = analysis.KFunction(r_max=r_abs, dr=step).compute(pk)
+        out["kfunction"] = k.to_dict()
+        figs["kfunction"] = lambda ax: k.plot(ax=ax)
+    if windows:
+        w = analysis.WindowCounts(window_radius=window_radius)
+        try:
+            w.compute(pk)
+        except InvalidInputError as exc:  # window larger than half the box
+            notes.append(f"windows skipped: {exc}")
+        else:
+            out["windows"] = w.to_dict()
+            figs["windows"] = lambda ax: w.plot(ax=ax)
+    if contacts:
+        c = analysis.Contacts(tolerance=tolerance).compute(pk)
+        out["contacts"] = c.to_dict()
+        figs["contacts"] = lambda ax: c.plot(ax=ax)
+    if pores:
+        p = analysis.PoreSizes(n_points=n_points, seed=seed).compute(pk)
+        out["pores"] = p.to_dict()
+        figs["pores"] = lambda ax: p.plot(ax=ax)
+    if plots is not None:
+        import matplotlib
+
+        matplotlib.use("Agg", force=False)
+        import matplotlib.pyplot as plt
+
+        folder = Path(plots)
+        folder.mkdir(parents=True, exist_ok=True)
+        written = []
+        for name, draw in figs.items():
+            fig, ax = plt.subplots(figsize=(6, 4))
+            draw(ax)
+            fig.tight_layout()
+            path = folder / f"{name}.png"
+            fig.savefig(path, dpi=120)
+            plt.close(fig)
+            written.append(str(path))
+        out["plots"] = written
+    return out
+
+
+def register(app: typer.Typer) -> None:
+    @app.command()
+    def analyze(
+        file: Path = typer.Argument(..., help="Packing file (gsd, xyz, lammps data, csv)."),
+        rdf: bool = typer.Option(False, "--rdf", help="Total RDF g(r) and contact values g(2a+)."),
+        partial: bool = typer.Option(False, "--partial", help="Partial RDFs g_km(r) and g_km(R_km)."),
+        kfunc: bool = typer.Option(False, "--kfunc", help="K function, total and partial."),
+        windows: bool = typer.Option(False, "--windows", help="Window histogram p(n_h)."),
+        contacts: bool = typer.Option(False, "--contacts", help="Coordination numbers, rattlers."),
+        pores: bool = typer.Option(False, "--pores", help="Pore-size distribution and DOH fit."),
+        r_max: float = typer.Option(3.0, help="RDF/K range in mean diameters (capped at half the box)."),
+        dr: float = typer.Option(0.01, help="Bin width in mean diameters."),
+        window_radius: float = typer.Option(2.5, help="Window radius R_h in sphere radii."),
+        tolerance: float = typer.Option(0.01, help="Contact gap tolerance eps."),
+        points: int = typer.Option(200_000, help="Test points for the pore sizes."),
+        seed: int = typer.Option(1, help="Seed of the pore test points."),
+        json_out: Optional[Path] = typer.Option(None, "--json", help="Write all results as JSON here."),
+        plots: Optional[Path] = typer.Option(None, "--plots", help="Write PNG plots into this folder."),
+        fmt: Optional[str] = typer.Option(None, "--format", help="Override the file format."),
+    ):
+        """Statistical descriptors of a pack (all of them unless some are selected)."""
+        from .. import io
+        from .._util import atomic_open
+
+        pk = io.read(file, fmt)
+        chosen = [rdf, partial, kfunc, windows, contacts, pores]
+        if not any(chosen):
+            chosen = [True] * 6
+        res = analyze_packing(
+            pk, *chosen, r_max=r_max, dr=dr, window_radius=window_radius, tolerance=tolerance,
+            n_points=points, seed=seed, plots=plots,
+        )
+        res = {"file": str(file), **res}
+        if json_out is not None:
+            with atomic_open(json_out, "w") as fh:
+                json.dump(res, fh, indent=1)
+        typer.echo(f"{file}: N={pk.n}, volume fraction {pk.volume_fraction:.4f}, species {pk.species_counts.tolist()}")
+        for note in res["notes"]:
+            typer.echo(f"  note: {note}")
+        if "contact_values" in res:
+            cv = ", ".join(f"g_{k}(contact)={v['value']:.3f}" for k, v in res["contact_values"].items())
+            typer.echo(f"  {cv}")
+        if "contacts" in res:
+            typer.echo(
+                f"  coordination {res['contacts']['coordination']:.3f} (eps={tolerance:g}), "
+                f"rattlers {res['contacts']['rattler_fraction']:.3f}"
+            )
+        if "windows" in res:
+            typer.echo(f"  window counts R_h={window_radius:g}: mean {res['windows']['mean']:.3f}")
+        if "pores" in res:
+            f = res["pores"]["fit"]["normalized"]
+            if "a" in f:
+                typer.echo(f"  pores: void fraction {res['pores']['void_fraction']:.4f}, "
+                           f"DOH a={f['a']:.4f}±{f['a_err']:.4f}, b={f['b']:.4f} (normalised form)")
+        if json_out is not None:
+            typer.echo(f"  wrote {json_out}")
+        if plots is not None:
+            typer.echo(f"  wrote {len(res.get('plots', []))} plots to {plots}")
