@@ -180,3 +180,20 @@ def test_discretize_bad_input(kw, needle):
     with pytest.raises(InvalidInputError) as e:
         pp.psd.discretize(pp.psd.CumulativeBeta(a=1, b=1, span=0.5), **kw)
     assert needle in str(e.value)
+
+
+def test_recorded_seed_regenerates_an_unseeded_set():
+    from polypack._util import seed_from_record
+
+    for make in (lambda seed: pp.psd.CumulativeBeta(2, 3, span=0.5).sample(200, seed=seed),
+                 lambda seed: pp.psd.Bimodal(0.4, 1.0).sample(200, seed=seed),
+                 lambda seed: pp.psd.discretize(pp.psd.CumulativeBeta(2, 3, span=0.5), seed=seed)):
+        s = make(None)
+        t = make(seed_from_record(s.report["seed"]))
+        assert np.array_equal(s.radii, t.radii) and np.array_equal(s.species, t.species)
+
+
+def test_monodisperse_set():
+    s = pp.psd.Monodisperse(2.0).sample(10, seed=3)
+    assert np.all(s.radii == 1.0) and s.report["descriptors"]["Cu"] == 1.0
+    assert s.report["descriptors"]["skewness"] == 0.0 and s.report["descriptors"]["polydispersity"] == 0.0

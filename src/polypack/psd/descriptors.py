@@ -100,7 +100,8 @@ def polydispersity(obj) -> float:
 def skewness(obj) -> float:
     """Skewness of the radii by number (third standardised central moment)."""
     if _kind(obj) != "model":
-        return float(stats.skew(_as_set(obj).radii)) if _as_set(obj).n > 2 else 0.0
+        r = _as_set(obj).radii
+        return float(stats.skew(r)) if r.size > 2 and np.ptp(r) > 1e-12 * r.max() else 0.0
     m1, m2, m3 = (moment(obj, k) for k in (1, 2, 3))
     var = m2 - m1 * m1
     if var <= 0:

@@ -345,10 +345,12 @@ class SizeDistribution:
         """
         from .sizeset import SizeSet
 
+        if method == "random" and seed is None:
+            seed = _fresh_seed()  # drawn once so the record below regenerates this very set
         d = self.sample_diameters(n, seed=seed, method=method)
         report = {"generator": "sample", "method": method, "n": int(n), "model": self.params()}
         if method == "random":
-            report["seed"] = seed_record(seed if seed is not None else _fresh_seed())
+            report["seed"] = seed_record(seed)
         return SizeSet.from_diameters(d, np.zeros(len(d), np.int64), report=report, model=self, dim=self.dim)
 
 
