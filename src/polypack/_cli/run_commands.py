@@ -1,0 +1,53 @@
+"""``polypack run``: a study file through size distribution -> packing -> analyses, P realizations."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+
+def register(app: typer.Typer) -> None:
+    @app.command("run")
+    def run(
+        study: Path = typer.Argument(..., help="Study file (TOML): [study] [psd] [protocol] [analysis.*] [output]."),
+        out: Optional[Path] = typer.Option(None, "--out", "-o", help="Output folder (default: out/<study name>)."),
+        workers: int = typer.Option(1, "--workers", "-j", min=1, help="Worker processes (1: serial, in-process)."),
+        scheduler: Optional[str] = typer.Option(
+            None, "--scheduler", help="Dask scheduler address (tcp://host:8786) of an existing cluster."
+        ),
+        dask: bool = typer.Option(False, "--dask", help="Run on a local Dask cluster with --workers workers."),
+        check: bool = typer.Option(False, "--check", help="Only validate the study file and print it resolved."),
+        force: bool = typer.Option(False, "--force", help="Recompute in an --out folder holding a different study."),
+        progress: Optional[bool] = typer.Option(
+            None, "--progress/--no-progress", help="Progress bar (default: on a terminal)."
+        ),
+    ):
+        """Run a study: P seeded realizations, one GSD + record each, ensemble curves, summary table, plots.
+
+        Rerunning the same command resumes: realizations whose GSD and record exist and
+        whose checksum matches are kept, the others are computed.
+        """
+        from ..errors import InvalidInputError
+        from ..study import load_study
+
+        st = load_study(study)
+        if check:
+            from ..ensemble.stages import check_available
+
+            check_available(st.data)
+            typer.echo(f"# {study}: valid; fingerprint {st.fingerprint}")
+            typer.echo(st.to_toml(), nl=False)
+            return
+        if scheduler and dask:
+            raise InvalidInputError("--scheduler and --dask: give one (--scheduler uses an existing cluster)")
+        from ..ensemble import dask_executor, run_study
+
+        out_dir = out if out is not None else Path("out") / st.name
+        if scheduler or dask:
+            with dask_executor(address=scheduler, n_workers=workers) as ex:
+                res = run_study(st, out_dir, executor=ex, force=force, progress=progress)
+        else:
+            res = run_study(st, out_dir, workers=workers, force=force, progress=progress)
+        typer.echo(res.summary())

@@ -1,0 +1,459 @@
+"""Run a study's realizations on any :class:`concurrent.futures.Executor`, with resume.
+
+Layout of the output folder::
+
+    DIR/study.resolved.toml      resolved study (all defaults) ...
+    DIR/study.resolved.json      ... with fingerprint and versions (polypack, python, numpy, numba)
+    DIR/realizations/r0000.gsd   one pack per realization (GSD, double precision)
+    DIR/realizations/r0000.json  its record: seed, protocol statistics, descriptors, sha256 of the GSD
+    DIR/summary.csv              one row per realization
+    DIR/ensemble/curves.json     ensemble-averaged curves, mean ± 1.96 standard errors
+    DIR/ensemble/<analysis>.csv  the same as tables; DIR/ensemble/<analysis>.png plots
+    DIR/ensemble/scalars.json    mean and standard error of every scalar descriptor
+
+A realization is *complete and verified* when its GSD and its record exist and the
+record's sha256 matches the GSD; the record is written last, so killing a run loses at
+most the realizations in flight, and rerunning the same command computes only the
+missing ones.  Every file is written atomically.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import csv
+import hashlib
+import json
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .._util import atomic_open, progress_bar
+from ..errors import InvalidInputError, PolypackError
+from ..study import Study, load_study
+from .stages import check_available, child_seed_records, realize
+
+__all__ = ["run_study", "EnsembleResult", "run_realization", "verify_realization", "aggregate"]
+
+CI_FACTOR = 1.96
+
+
+def sha256_file(path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def run_realization(study_data: dict, index: int, seed_rec: dict):
+    """Worker task: ``(index, packing, record, seconds)``; picklable for process pools and Dask."""
+    t0 = time.perf_counter()
+    packing, record = realize(study_data, index, seed_rec)
+    return index, packing, record, time.perf_counter() - t0
+
+
+def _paths(out: Path, index: int):
+    base = out / "realizations" / f"r{index:04d}"
+    return base.with_suffix(".gsd"), base.with_suffix(".json")
+
+
+def verify_realization(out, index: int, fingerprint: str):
+    """The record of realization ``index`` if it is complete and verified, else None."""
+    gsd, rec = _paths(Path(out), index)
+    if not (gsd.is_file() and rec.is_file()):
+        return None
+    try:
+        with open(rec, encoding="utf-8") as fh:
+            record = json.load(fh)
+        ok = (
+            record.get("fingerprint") == fingerprint
+            and record.get("index") == index
+            and record["files"]["gsd"]["sha256"] == sha256_file(gsd)
+        )
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    return record if ok else None
+
+
+def _write_realization(out: Path, study: Study, index, packing, record, seconds):
+    import polypack as pp
+
+    gsd, rec = _paths(out, index)
+    pp.io.write(gsd, packing)  # atomic
+    files = {"gsd": {"path": gsd.name, "sha256": sha256_file(gsd)}}
+    for fmt in study.data["output"]["formats"]:
+        if fmt == "gsd":
+            continue
+        p = gsd.with_suffix(f".{fmt}")
+        pp.io.write(p, packing)
+        files[fmt] = {"path": p.name}
+    record = dict(record, fingerprint=study.fingerprint, files=files, seconds=seconds)
+    with atomic_open(rec, "w", encoding="utf-8") as fh:  # written last: marks completion
+        json.dump(record, fh, allow_nan=False)
+    return record
+
+
+def _extra_formats(out: Path, study: Study, records):
+    """Formats asked for after a realization was computed are written from its GSD."""
+    import polypack as pp
+
+    for rec in records:
+        gsd, _ = _paths(out, rec["index"])
+        for fmt in study.data["output"]["formats"]:
+            p = gsd.with_suffix(f".{fmt}")
+            if fmt != "gsd" and not p.exists():
+                pp.io.write(p, pp.io.read(gsd))
+
+
+@dataclass
+class EnsembleResult:
+    """What :func:`run_study` did and where the results are."""
+
+    out: Path
+    study: Study
+    records: list
+    computed: list = field(default_factory=list)
+    skipped: list = field(default_factory=list)
+    seconds: float = 0.0
+    files: dict = field(default_factory=dict)
+
+    def summary(self) -> str:
+        """A few lines for the terminal: counts, mean volume fraction and file locations."""
+        vf = np.array([r["volume_fraction"] for r in self.records])
+        lines = [
+            f"study {self.study.name!r}: {len(self.records)} realization(s) in {self.out} "
+            f"({len(self.computed)} computed, {len(self.skipped)} reused) in {self.seconds:.1f} s",
+        ]
+        if vf.size:
+            se = vf.std(ddof=1) / math.sqrt(vf.size) if vf.size > 1 else float("nan")
+            lines.append(f"  volume fraction {vf.mean():.5f} ± {CI_FACTOR * se:.2g} (95 % CI)")
+        for what, p in self.files.items():
+            lines.append(f"  {what:<20s} {p}")
+        return "\n".join(lines)
+
+
+def _check_out(out: Path, study: Study, force: bool):
+    prev = out / "study.resolved.json"
+    if not prev.is_file():
+        return
+    try:
+        with open(prev, encoding="utf-8") as fh:
+            fp = json.load(fh).get("fingerprint")
+    except (OSError, ValueError):
+        fp = None
+    if fp == study.fingerprint:
+        return
+    if not force:
+        raise InvalidInputError(
+            f"{out} holds results of a different study (fingerprint {str(fp)[:12]}, this study "
+            f"{study.fingerprint[:12]}); use --force (force=True) to recompute there, or another --out"
+        )
+    # stale realizations are recomputed: their records no longer verify (fingerprint differs)
+
+
+def run_study(
+    study,
+    out,
+    *,
+    executor: cf.Executor | None = None,
+    workers: int = 1,
+    force: bool = False,
+    progress=None,
+    aggregate_results: bool = True,
+) -> EnsembleResult:
+    """Run all realizations of a study and write every result (see the module docstring).
+
+    Parameters
+    ----------
+    study : Study, dict or path
+        A study file (TOML), a parsed dict or a :class:`~polypack.study.Study`.
+    out : path
+        Output folder (created).  Rerunning into the same folder resumes.
+    executor : concurrent.futures.Executor, optional
+        Where realizations run: any executor (a process pool, ``dask.distributed``'s
+        ``Client.get_executor()``, ``mpi4py.futures.MPIPoolExecutor`` ...).  It is not shut
+        down.  Default: in-process when ``workers == 1``, else a
+        :class:`~concurrent.futures.ProcessPoolExecutor` with ``workers`` processes.
+    workers : int
+        Number of worker processes when no executor is given.
+    force : bool
+        Allow ``out`` to hold results of a different study; they are recomputed.
+    progress : bool, optional
+        Progress bar across realizations (default: on a terminal only).
+
+    Returns
+    -------
+    EnsembleResult
+
+    Notes
+    -----
+    Realization ``i`` uses child ``i`` of ``numpy.random.SeedSequence(study.seed).spawn(P)``
+    and is a pure function of the resolved study and that seed, so serial, process-pool and
+    Dask runs give bitwise identical packs.  Workers return the pack to this process, which
+    writes the files, so a Dask cluster needs no shared file system.  Children of
+    ``spawn`` do not depend on ``P``: raising ``study.realizations`` reuses finished ones.
+    """
+    t0 = time.perf_counter()
+    study = load_study(study)
+    check_available(study.data)
+    if not (isinstance(workers, int) and workers >= 1):
+        raise InvalidInputError(f"workers={workers!r}: must be an integer >= 1")
+    out = Path(out)
+    _check_out(out, study, force)
+    (out / "realizations").mkdir(parents=True, exist_ok=True)
+    study.write_resolved(out)
+
+    seeds = child_seed_records(study.seed, study.realizations)
+    records = {}
+    for i in range(study.realizations):
+        rec = verify_realization(out, i, study.fingerprint)
+        if rec is not None:
+            records[i] = rec
+    skipped = sorted(records)
+    todo = [i for i in range(study.realizations) if i not in records]
+    computed, failures = [], {}
+
+    bar = progress_bar(total=study.realizations, desc=study.name, progress=progress, unit="realization")
+    bar.update(len(skipped))
+    own = None
+    try:
+        if todo and executor is None and workers == 1:
+            for i in todo:
+                try:
+                    _, pk, rec, sec = run_realization(study.data, i, seeds[i])
+                except PolypackError as exc:
+                    failures[i] = exc
+                    bar.update(1)
+                    continue
+                records[i] = _write_realization(out, study, i, pk, rec, sec)
+                computed.append(i)
+                bar.update(1)
+        elif todo:
+            if executor is None:
+                own = executor = cf.ProcessPoolExecutor(max_workers=workers)
+            futs = {executor.submit(run_realization, study.data, i, seeds[i]): i for i in todo}
+            try:
+                for fut in cf.as_completed(futs):
+                    i = futs[fut]
+                    try:
+                        _, pk, rec, sec = fut.result()
+                    except PolypackError as exc:
+                        failures[i] = exc
+                        bar.update(1)
+                        continue
+                    records[i] = _write_realization(out, study, i, pk, rec, sec)
+                    computed.append(i)
+                    bar.update(1)
+            except BaseException:
+                for f in futs:
+                    f.cancel()
+                raise
+    finally:
+        bar.close()
+        if own is not None:
+            own.shutdown(wait=True, cancel_futures=True)
+    if failures:
+        i, exc = sorted(failures.items())[0]
+        raise PolypackError(
+            f"{len(failures)} of {study.realizations} realization(s) failed (first: realization {i}: {exc}); "
+            f"the {len(records)} finished ones are saved in {out}, rerun to retry"
+        )
+
+    recs = [records[i] for i in range(study.realizations)]
+    _extra_formats(out, study, recs)
+    res = EnsembleResult(out=out, study=study, records=recs, computed=sorted(computed), skipped=skipped)
+    res.files = {
+        "resolved study": out / "study.resolved.toml",
+        "packs + records": out / "realizations",
+    }
+    if aggregate_results:
+        res.files.update(aggregate(out, study, recs))
+    res.seconds = time.perf_counter() - t0
+    return res
+
+
+# --------------------------------------------------------------------------- aggregation
+def _curve_sets(d):
+    """``(x_name, x, {curve: y})`` of one analysis dict, or None if it has no curves."""
+    for xname in ("r", "n_h"):
+        if xname in d and isinstance(d[xname], list):
+            x = d[xname]
+            break
+    else:
+        return None
+    curves = {}
+    for k, v in d.items():
+        if k == xname or k.endswith("_err"):
+            continue
+        if isinstance(v, list) and v and len(v) == len(x) and all(isinstance(e, (int, float)) or e is None for e in v):
+            curves[k] = v
+        elif k == "partial" and isinstance(v, dict):
+            for pk, pv in v.items():
+                if isinstance(pv, list) and len(pv) == len(x):
+                    curves[f"partial.{pk}"] = pv
+    return xname, x, curves
+
+
+def _as_float(v):
+    return np.array([np.nan if e is None else e for e in v], dtype=np.float64)
+
+
+def ensemble_curves(records) -> dict:
+    """Mean, standard error and 95 % band (mean ± 1.96 SE) of every curve across realizations."""
+    out = {}
+    names = sorted({k for r in records for k in r.get("analysis", {})})
+    for name in names:
+        per = []
+        for r in records:
+            d = r["analysis"].get(name)
+            ds = d if isinstance(d, list) else [d]
+            per.append(ds)
+        for j in range(len(per[0])):
+            key = name if len(per[0]) == 1 else f"{name}{j}"
+            sets = [_curve_sets(p[j]) for p in per if j < len(p)]
+            if any(s is None for s in sets):
+                continue
+            xname = sets[0][0]
+            length = max(len(s[1]) for s in sets)
+            if xname == "n_h":  # histograms of different lengths: pad with p = 0
+                x = np.arange(length, dtype=np.float64)
+            else:
+                if any(len(s[1]) != length for s in sets):
+                    continue
+                x = _as_float(sets[0][1])
+            entry = {"x_name": xname, "x": x.tolist(), "n_realizations": len(sets), "curves": {}}
+            cnames = sorted(set().union(*(s[2] for s in sets)))
+            for c in cnames:
+                y = np.zeros((len(sets), length)) if xname == "n_h" else np.full((len(sets), length), np.nan)
+                for i, s in enumerate(sets):
+                    v = s[2].get(c)
+                    if v is not None:
+                        y[i, : len(v)] = _as_float(v)
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    cnt = np.sum(np.isfinite(y), axis=0)
+                    mean = np.nanmean(np.where(np.isfinite(y), y, np.nan), axis=0) if len(sets) else y[0]
+                    sd = np.nanstd(y, axis=0, ddof=1) if len(sets) > 1 else np.full(length, np.nan)
+                    se = sd / np.sqrt(np.maximum(cnt, 1))
+                entry["curves"][c] = {
+                    "mean": _nan_none(mean),
+                    "se": _nan_none(se),
+                    "lo": _nan_none(mean - CI_FACTOR * se),
+                    "hi": _nan_none(mean + CI_FACTOR * se),
+                }
+            out[key] = entry
+    return out
+
+
+def _nan_none(a):
+    return [float(v) if math.isfinite(v) else None for v in np.asarray(a, dtype=np.float64)]
+
+
+def _flat_row(rec) -> dict:
+    row = {
+        "index": rec["index"],
+        "seed_entropy": rec["seed"]["entropy"],
+        "seed_spawn_key": " ".join(str(k) for k in rec["seed"].get("spawn_key", [])),
+        "n": rec["n"],
+        "volume_fraction": rec["volume_fraction"],
+    }
+    for k, v in rec.get("protocol", {}).items():
+        row[f"protocol.{k}"] = v
+    for k, v in rec.get("scalars", {}).items():
+        row[k] = v
+    row["seconds"] = rec.get("seconds")
+    row["gsd"] = f"realizations/{rec['files']['gsd']['path']}"
+    row["sha256"] = rec["files"]["gsd"]["sha256"]
+    return row
+
+
+def ensemble_scalars(records) -> dict:
+    """Mean, standard error and count of every numeric summary column across realizations."""
+    rows = [_flat_row(r) for r in records]
+    out = {}
+    for k in dict.fromkeys(k for r in rows for k in r):
+        if k in ("index", "seed_entropy", "seed_spawn_key", "gsd", "sha256", "seconds"):
+            continue
+        vals = [r.get(k) for r in rows]
+        if not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in vals):
+            continue
+        a = np.asarray(vals, dtype=np.float64)
+        se = a.std(ddof=1) / math.sqrt(a.size) if a.size > 1 else float("nan")
+        out[k] = {"mean": float(a.mean()), "se": se if math.isfinite(se) else None, "n": int(a.size)}
+    return out
+
+
+def aggregate(out, study: Study, records) -> dict:
+    """Write summary.csv, ensemble curves (JSON, CSV), scalar means and plots; return their paths."""
+    out = Path(out)
+    ens = out / "ensemble"
+    ens.mkdir(parents=True, exist_ok=True)
+    files = {}
+
+    rows = [_flat_row(r) for r in records]
+    cols = list(dict.fromkeys(k for r in rows for k in r))
+    with atomic_open(out / "summary.csv", "w", newline="", encoding="utf-8") as fh:
+        w = csv.DictWriter(fh, fieldnames=cols)
+        w.writeheader()
+        for r in rows:
+            w.writerow({k: ("" if r.get(k) is None else r.get(k)) for k in cols})
+    files["summary table"] = out / "summary.csv"
+
+    curves = ensemble_curves(records)
+    with atomic_open(ens / "curves.json", "w", encoding="utf-8") as fh:
+        json.dump({"ci_factor": CI_FACTOR, "n_realizations": len(records), "analyses": curves}, fh)
+    with atomic_open(ens / "scalars.json", "w", encoding="utf-8") as fh:
+        json.dump(ensemble_scalars(records), fh, indent=1)
+    files["ensemble curves"] = ens / "curves.json"
+    files["ensemble scalars"] = ens / "scalars.json"
+    for name, entry in curves.items():
+        with atomic_open(ens / f"{name}.csv", "w", newline="", encoding="utf-8") as fh:
+            w = csv.writer(fh)
+            cn = list(entry["curves"])
+            w.writerow([entry["x_name"]] + [f"{c}_{s}" for c in cn for s in ("mean", "lo", "hi")])
+            for j, x in enumerate(entry["x"]):
+                w.writerow([x] + ["" if entry["curves"][c][s][j] is None else entry["curves"][c][s][j]
+                                  for c in cn for s in ("mean", "lo", "hi")])
+    if study.data["output"]["plots"] and curves:
+        files["plots"] = ens / f"*.{study.data['output']['plot_format']}"
+        plot_curves(curves, ens, study.data["output"]["plot_format"], title=study.name)
+    return files
+
+
+_YLABEL = {"rdf": "g(r)", "kfunction": "K(r)", "pores": "P(r_P > r)", "windows": "p(n_h)"}
+
+
+def plot_curves(curves: dict, folder, fmt="png", title=""):
+    """One figure per analysis: ensemble mean of each curve with its 95 % band."""
+    import matplotlib.pyplot as plt
+
+    from .._util import atomic_path
+
+    for name, entry in curves.items():
+        fig, ax = plt.subplots(figsize=(6, 4))
+        x = np.array(entry["x"], dtype=float)
+        for c, d in entry["curves"].items():
+            if name.startswith("pores") and c not in ("survival",):
+                continue
+            if name.startswith("kfunction") and c.startswith("partial"):
+                continue
+            mean = np.array([np.nan if v is None else v for v in d["mean"]])
+            lo = np.array([np.nan if v is None else v for v in d["lo"]])
+            hi = np.array([np.nan if v is None else v for v in d["hi"]])
+            if name.startswith("windows"):
+                ax.errorbar(x, mean, yerr=[mean - lo, hi - mean], fmt="o-", ms=3, label=c)
+            else:
+                (line,) = ax.plot(x, mean, lw=1.2, label=c)
+                ax.fill_between(x, lo, hi, color=line.get_color(), alpha=0.25, lw=0)
+        base = name.rstrip("0123456789")
+        ax.set_xlabel(entry["x_name"])
+        ax.set_ylabel(_YLABEL.get(base, name))
+        ax.set_title(f"{title}: {name}, mean ± 1.96 SE over {entry['n_realizations']} realization(s)", fontsize=9)
+        ax.legend(fontsize=7)
+        fig.tight_layout()
+        target = Path(folder) / f"{name}.{fmt}"
+        with atomic_path(target) as tmp:
+            fig.savefig(tmp, format=fmt, dpi=120)
+        plt.close(fig)

@@ -1,0 +1,297 @@
+"""The stages of one realization: sizes -> packing protocol -> analyses.
+
+Each stage is a small adapter from the resolved study (:mod:`polypack.study`) to one
+public polypack function, so a change of a signature is fixed in one place.
+:func:`realize` chains them; it is a pure function of the resolved study and the
+realization's seed record, so it gives the same result in-process, in a process pool
+or on a Dask worker.
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+
+import numpy as np
+
+from .._util import seed_from_record, seed_record
+from ..errors import InvalidInputError
+
+__all__ = ["make_sizes", "make_packing", "run_analyses", "realize", "stage_seeds", "check_available"]
+
+# the packer synchronises (and rescales velocities) at chunk boundaries; chunks sized from
+# the measured collision rate would make the trajectory depend on the machine load, so the
+# runner asks for chunks that do not depend on the wall clock (see make_packing)
+_DETERMINISTIC_PACK = {"chunk_seconds": 1e9}
+
+
+def stage_seeds(seed_rec):
+    """Independent child seeds of one realization: ``(sizes, protocol, analysis)``."""
+    ss = seed_from_record(seed_rec)
+    return tuple(ss.spawn(3))
+
+
+# --------------------------------------------------------------------------- sizes
+def make_sizes(psd: dict, seed):
+    """A :class:`polypack.psd.SizeSet` (or a compatible object) from the ``[psd]`` table.
+
+    Uses ``polypack.psd.<Model>(**params).sample(n=, seed=, method=)`` or
+    ``polypack.psd.discretize(model, ...)`` (§1.2 of 001_ad5bae0acea940c4.txt).
+    """
+    from .. import psd as psd_mod
+    from ..study import PSD_MODELS
+
+    cls_name, keys = PSD_MODELS[psd["model"]]
+    params = {k: psd[k] for k in keys if k in psd}
+    model = getattr(psd_mod, cls_name)(**params)
+    if psd["sampling"] == "discretize":
+        kw = {k: psd[k] for k in ("n_classes", "spacing", "min_per_class", "min_total", "max_total") if k in psd}
+        return psd_mod.discretize(model, seed=seed, method=psd.get("method", "random"), **kw)
+    return model.sample(n=psd["n"], seed=seed, method=psd.get("method", "random"))
+
+
+# --------------------------------------------------------------------------- packing
+def _accepted(func, kwargs):
+    """The subset of ``kwargs`` that ``func`` accepts (all of them if it takes ``**kw``)."""
+    sig = inspect.signature(func)
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in sig.parameters.values()):
+        return dict(kwargs)
+    return {k: v for k, v in kwargs.items() if k in sig.parameters}
+
+
+def _shake_options(pr):
+    opts = {}
+    for key, arg in (("shake_radius", "shake_radius"), ("max_trials", "max_trials"), ("shake_method", "method")):
+        if key in pr:
+            opts[arg] = pr[key]
+    return opts
+
+
+def check_available(study_data):
+    """Raise InvalidInputError (with the key path) if a stage the study needs is missing.
+
+    Run by the runner before any realization starts, so a study asking for SCRM on a
+    build without :func:`polypack.scrm` fails at once.
+    """
+    import polypack as pp
+
+    pr = study_data["protocol"]
+    needs = ["pack"]
+    if pr["kind"] == "scrm" or pr.get("global_shakes", 0) > 0:
+        needs.append("scrm" if pr["kind"] == "scrm" else "shake")
+    for name in needs:
+        try:
+            getattr(pp, name)
+        except (ImportError, AttributeError):
+            if name == "scrm":
+                try:
+                    getattr(pp, "shake")
+                    continue  # pack + shake fallback
+                except (ImportError, AttributeError):
+                    pass
+            raise InvalidInputError(
+                f'protocol.kind = "{pr["kind"]}": polypack.{name} is not available in this installation'
+            ) from None
+    if "schedule" in pr:
+        try:
+            scrm = pp.scrm
+        except (ImportError, AttributeError):
+            raise InvalidInputError("protocol.schedule: needs polypack.scrm, not available here") from None
+        if "schedule" not in _accepted(scrm, {"schedule": 1}):
+            raise InvalidInputError("protocol.schedule: not supported by this polypack.scrm")
+    try:
+        from .. import psd as psd_mod  # noqa: F401
+        from ..study import PSD_MODELS
+
+        getattr(psd_mod, PSD_MODELS[study_data["psd"]["model"]][0])
+    except (ImportError, AttributeError):
+        raise InvalidInputError(
+            f'psd.model = "{study_data["psd"]["model"]}": not available in this installation'
+        ) from None
+    for name in study_data.get("analysis", {}):
+        cls = _ANALYSES[name][0]
+        try:
+            import polypack.analysis as pa
+
+            getattr(pa, cls)
+        except (ImportError, AttributeError):
+            raise InvalidInputError(f"analysis.{name}: polypack.analysis.{cls} is not available here") from None
+
+
+def make_packing(sizes, protocol: dict, seed):
+    """Run the packing protocol of the ``[protocol]`` table.
+
+    ``kind = "crm"``: :func:`polypack.pack` (CRM, §3.1 of 000_2cedc098acbd866b.txt), then
+    ``global_shakes`` global shakes with :func:`polypack.shake` if M > 0.
+    ``kind = "scrm"``: :func:`polypack.scrm` (CRM interleaved with shaking, §3.2), or
+    pack + shake where ``scrm`` is not available.
+    """
+    import polypack as pp
+
+    pr = protocol
+    s_pack, s_shake = seed.spawn(2)
+    grow = {}
+    if "growth_rate" in pr:
+        grow["growth_rate"] = pr["growth_rate"]
+    if "max_seconds" in pr:
+        grow["max_seconds"] = pr["max_seconds"]
+    m = int(pr.get("global_shakes", 0))
+    if pr["kind"] == "scrm":
+        try:
+            scrm = pp.scrm
+        except (ImportError, AttributeError):
+            scrm = None
+        if scrm is not None:
+            kw = dict(grow, global_shakes=m, **_shake_options(pr))
+            if "schedule" in pr:
+                kw["schedule"] = pr["schedule"]
+            kw = dict(_accepted(scrm, dict(_DETERMINISTIC_PACK)), **kw)
+            return scrm(sizes, volume_fraction=pr["volume_fraction"], seed=s_pack, progress=False, **kw)
+    pk = pp.pack(sizes, pr["volume_fraction"], seed=s_pack, progress=False, **grow, **_DETERMINISTIC_PACK)
+    if m > 0:
+        pk = pp.shake(pk, global_shakes=m, seed=s_shake, progress=False, **_shake_options(pr))
+    return pk
+
+
+# --------------------------------------------------------------------------- analyses
+def _rdf(pa, opts, packing, seed):
+    kw = {k: opts[k] for k in ("dr", "method", "scale") if k in opts}
+    return pa.RDF(opts["r_max"], **kw).compute(packing)
+
+
+def _kfunction(pa, opts, packing, seed):
+    kw = {k: opts[k] for k in ("dr", "scale") if k in opts}
+    return pa.KFunction(opts["r_max"], **kw).compute(packing)
+
+
+def _windows(pa, opts, packing, seed):
+    radii = opts["window_radius"]
+    kw = {k: opts[k] for k in ("reference",) if k in opts}
+    if isinstance(radii, list):
+        return [pa.WindowCounts(window_radius=r, **kw).compute(packing) for r in radii]
+    return pa.WindowCounts(window_radius=radii, **kw).compute(packing)
+
+
+def _contacts(pa, opts, packing, seed):
+    kw = {k: opts[k] for k in ("tolerance", "min_contacts") if k in opts}
+    return pa.Contacts(**kw).compute(packing)
+
+
+def _pores(pa, opts, packing, seed):
+    kw = {k: opts[k] for k in ("n_grid",) if k in opts}
+    return pa.PoreSizes(n_points=opts["n_points"], seed=seed, **kw).compute(packing)
+
+
+_ANALYSES = {
+    "rdf": ("RDF", _rdf),
+    "kfunction": ("KFunction", _kfunction),
+    "windows": ("WindowCounts", _windows),
+    "contacts": ("Contacts", _contacts),
+    "pores": ("PoreSizes", _pores),
+}
+
+
+def run_analyses(packing, analyses: dict, seed) -> dict:
+    """``{name: estimator.to_dict()}`` for every ``[analysis.*]`` table (§2 of 000_2cedc098acbd866b.txt).
+
+    Window histograms with several radii give a list of dicts.
+    """
+    import polypack.analysis as pa
+
+    out = {}
+    seeds = dict(zip(sorted(analyses), seed.spawn(len(analyses))))
+    for name in sorted(analyses):
+        est = _ANALYSES[name][1](pa, analyses[name], packing, seeds[name])
+        out[name] = [e.to_dict() for e in est] if isinstance(est, list) else est.to_dict()
+    return out
+
+
+# --------------------------------------------------------------------------- scalars
+def _jsonable(v):
+    if isinstance(v, (np.floating, float)):
+        v = float(v)
+        return v if math.isfinite(v) else None
+    if isinstance(v, (np.integer, int)) and not isinstance(v, bool):
+        return int(v)
+    if isinstance(v, (bool, np.bool_, str)) or v is None:
+        return v if not isinstance(v, np.bool_) else bool(v)
+    return None
+
+
+def protocol_stats(meta: dict) -> dict:
+    """Scalar run statistics of the protocol (status, collisions, pressures, shake acceptance ...)."""
+    out = {}
+    for k, v in meta.items():
+        if k in ("seed", "history"):
+            continue
+        j = _jsonable(v)
+        if j is not None or v is None:
+            if not isinstance(v, (list, dict, tuple, np.ndarray)):
+                out[k] = j
+    return out
+
+
+def scalar_descriptors(analyses: dict) -> dict:
+    """Scalar descriptors for the summary table (coordination, window moments, pore fit ...)."""
+    out = {}
+    for name, d in analyses.items():
+        items = list(enumerate(d)) if isinstance(d, list) else [(None, d)]
+        for idx, dd in items:
+            prefix = name if idx is None else f"{name}{idx}"
+            for k, v in dd.items():
+                if k in ("n_realizations", "estimator", "dr", "r_max", "n_points", "tolerance", "min_contacts"):
+                    continue
+                if isinstance(v, (int, float)) and not isinstance(v, bool):
+                    out[f"{prefix}.{k}"] = v
+                elif isinstance(v, list) and name == "contacts" and k == "per_species":
+                    for i, x in enumerate(v):
+                        if isinstance(x, list):
+                            for j, y in enumerate(x):
+                                out[f"{prefix}.{k}.{i}-{j}"] = y
+                        else:
+                            out[f"{prefix}.{k}.{i}"] = x
+                elif isinstance(v, dict) and name == "pores" and k == "fit":
+                    for fk, fv in v.items():
+                        if isinstance(fv, dict):
+                            for kk, vv in fv.items():
+                                if isinstance(vv, (int, float)) and not isinstance(vv, bool):
+                                    out[f"{prefix}.fit.{fk}.{kk}"] = vv
+                        elif isinstance(fv, (int, float)) and not isinstance(fv, bool):
+                            out[f"{prefix}.fit.{fk}"] = fv
+    return out
+
+
+# --------------------------------------------------------------------------- one realization
+def realize(study_data: dict, index: int, seed_rec: dict):
+    """Realization ``index`` of a resolved study: ``(packing, record)``.
+
+    A pure function of ``(study_data, seed_rec)``: the sizes, protocol and analysis seeds
+    are spawned from the realization's seed (:func:`stage_seeds`).  The record holds the
+    seed, the protocol statistics, the size-set report and every analysis as plain data;
+    the runner adds file names and checksums.
+    """
+    s_sizes, s_proto, s_ana = stage_seeds(seed_rec)
+    sizes = make_sizes(study_data["psd"], s_sizes)
+    packing = make_packing(sizes, study_data["protocol"], s_proto)
+    analyses = run_analyses(packing, study_data.get("analysis", {}), s_ana)
+    report = getattr(sizes, "report", {}) or {}
+    psd_scalars = {k: _jsonable(v) for k, v in report.items() if _jsonable(v) is not None}
+    record = {
+        "index": int(index),
+        "seed": dict(seed_rec),
+        "n": int(packing.n),
+        "volume_fraction": float(packing.volume_fraction),
+        "species_counts": [int(c) for c in np.asarray(packing.species_counts)],
+        "box": [float(x) for x in packing.box],
+        "protocol": protocol_stats(dict(packing.meta)),
+        "psd": psd_scalars,
+        "analysis": analyses,
+        "scalars": scalar_descriptors(analyses),
+    }
+    return packing, record
+
+
+def child_seed_records(seed: int, realizations: int) -> list:
+    """Seed records of ``SeedSequence(seed).spawn(realizations)``."""
+    root = np.random.SeedSequence(int(seed))
+    return [seed_record(c) for c in root.spawn(int(realizations))]

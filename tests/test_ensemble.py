@@ -1,0 +1,212 @@
+"""Ensemble runner: serial == process pool (== Dask) bitwise, resume, study changes, aggregation."""
+
+import concurrent.futures as cf
+import csv
+import json
+
+import numpy as np
+import pytest
+
+import polypack as pp
+from polypack.errors import InvalidInputError, PolypackError
+
+
+def _require(module, name):
+    """Skip unless ``module.name`` exists (pieces built in parallel land at different times)."""
+    import importlib
+
+    try:
+        mod = importlib.import_module(module)
+        getattr(mod, name)
+    except (ImportError, AttributeError):
+        pytest.skip(f"{module}.{name} not available yet")
+
+
+@pytest.fixture(autouse=True)
+def _stages_available():
+    _require("polypack.psd", "Bimodal")
+    _require("polypack.generate.lubachevsky", "pack")
+
+
+def tiny(seed=11, realizations=3, **protocol):
+    pr = {"kind": "crm", "volume_fraction": 0.45}
+    pr.update(protocol)
+    return {
+        "study": {"name": "tiny", "seed": seed, "realizations": realizations},
+        "psd": {"model": "bimodal", "size_ratio": 0.5, "volume_ratio": 0.5, "n": 120},
+        "protocol": pr,
+        "analysis": {
+            "rdf": {"r_max": 0.9, "dr": 0.05},
+            "windows": {"window_radius": 2.0},
+            "contacts": {"tolerance": 0.02},
+            "pores": {"n_points": 500},
+        },
+        "output": {"plots": False},
+    }
+
+
+def positions(out, i):
+    return pp.io.read(out / "realizations" / f"r{i:04d}.gsd").positions
+
+
+def results(out, p):
+    """Everything of a run that must not depend on where or when it ran."""
+    recs = []
+    for i in range(p):
+        rec = json.loads((out / "realizations" / f"r{i:04d}.json").read_text())
+        recs.append((rec["seed"], rec["volume_fraction"], rec["analysis"], rec["protocol"]["collisions"]))
+    return [positions(out, i) for i in range(p)], recs
+
+
+def assert_same(a, b):
+    pa, ra = a
+    pb, rb = b
+    for x, y in zip(pa, pb):
+        assert np.array_equal(x, y)  # bitwise
+    assert ra == rb
+
+
+@pytest.fixture(scope="module")
+def serial_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("serial")
+    res = pp.ensemble.run_study(tiny(), out)
+    return out, res
+
+
+def test_serial_run_writes_everything(serial_run):
+    out, res = serial_run
+    assert res.computed == [0, 1, 2] and res.skipped == []
+    for i in range(3):
+        assert (out / "realizations" / f"r{i:04d}.gsd").is_file()
+    assert (out / "study.resolved.toml").is_file() and (out / "study.resolved.json").is_file()
+    # seeds are SeedSequence(seed).spawn(P)
+    kids = np.random.SeedSequence(11).spawn(3)
+    for rec, kid in zip(res.records, kids):
+        assert rec["seed"]["entropy"] == 11 and tuple(rec["seed"]["spawn_key"]) == kid.spawn_key
+        assert rec["volume_fraction"] == pytest.approx(0.45, rel=1e-9)
+        assert rec["n"] == 120
+    # different realizations are different packs
+    assert not np.array_equal(positions(out, 0), positions(out, 1))
+    rows = list(csv.DictReader(open(out / "summary.csv")))
+    assert [int(r["index"]) for r in rows] == [0, 1, 2]
+    assert {"volume_fraction", "protocol.collisions", "contacts.coordination", "windows.mean", "sha256"} <= set(rows[0])
+
+
+def test_ensemble_curves_are_mean_and_95_band(serial_run):
+    out, res = serial_run
+    doc = json.loads((out / "ensemble" / "curves.json").read_text())
+    g = np.array([r["analysis"]["rdf"]["g"] for r in res.records], dtype=float)
+    c = doc["analyses"]["rdf"]["curves"]["g"]
+    mean = np.array(c["mean"], dtype=float)
+    se = g.std(axis=0, ddof=1) / np.sqrt(3)
+    np.testing.assert_allclose(mean, g.mean(axis=0), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(np.array(c["hi"], dtype=float) - mean, 1.96 * se, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(mean - np.array(c["lo"], dtype=float), 1.96 * se, rtol=1e-9, atol=1e-12)
+    assert "partial.0-1" in doc["analyses"]["rdf"]["curves"]
+    # window histograms: probabilities pooled over realizations still sum to one
+    p = np.array(doc["analyses"]["windows"]["curves"]["p"]["mean"], dtype=float)
+    assert p.sum() == pytest.approx(1.0, abs=1e-9)
+    sc = json.loads((out / "ensemble" / "scalars.json").read_text())
+    cn = [r["scalars"]["contacts.coordination"] for r in res.records]
+    assert sc["contacts.coordination"]["mean"] == pytest.approx(np.mean(cn), rel=1e-12)
+
+
+def test_two_processes_give_identical_results(serial_run, tmp_path):
+    out, _ = serial_run
+    res = pp.ensemble.run_study(tiny(), tmp_path, workers=2)
+    assert res.computed == [0, 1, 2]
+    assert_same(results(out, 3), results(tmp_path, 3))
+
+
+def test_any_executor_gives_identical_results(serial_run, tmp_path):
+    out, _ = serial_run
+    with cf.ThreadPoolExecutor(max_workers=2) as ex:
+        pp.ensemble.run_study(tiny(), tmp_path, executor=ex)
+    assert_same(results(out, 3), results(tmp_path, 3))
+
+
+def test_dask_local_gives_identical_results(serial_run, tmp_path):
+    pytest.importorskip("dask.distributed")
+    out, _ = serial_run
+    with pp.ensemble.dask_executor(n_workers=2) as ex:
+        pp.ensemble.run_study(tiny(), tmp_path, executor=ex)
+    assert_same(results(out, 3), results(tmp_path, 3))
+
+
+def test_resume_recomputes_only_broken_realizations(serial_run, tmp_path):
+    import shutil
+
+    out, _ = serial_run
+    shutil.copytree(out, tmp_path / "r", dirs_exist_ok=True)
+    r = tmp_path / "r"
+    (r / "realizations" / "r0001.gsd").unlink()  # lost
+    gsd2 = r / "realizations" / "r0002.gsd"
+    data = bytearray(gsd2.read_bytes())
+    data[-10] ^= 0xFF  # corrupted: checksum no longer matches
+    gsd2.write_bytes(bytes(data))
+    res = pp.ensemble.run_study(tiny(), r)
+    assert res.computed == [1, 2] and res.skipped == [0]
+    assert_same(results(out, 3), results(r, 3))
+    res = pp.ensemble.run_study(tiny(), r)
+    assert res.computed == [] and res.skipped == [0, 1, 2]
+
+
+def test_interrupted_run_resumes_to_the_same_results(serial_run, tmp_path, monkeypatch):
+    from polypack.ensemble import runner
+
+    out, _ = serial_run
+    real = runner.run_realization
+
+    def dies_at_2(data, i, seed):
+        if i == 2:
+            raise KeyboardInterrupt
+        return real(data, i, seed)
+
+    monkeypatch.setattr(runner, "run_realization", dies_at_2)
+    with pytest.raises(KeyboardInterrupt):
+        pp.ensemble.run_study(tiny(), tmp_path)
+    assert (tmp_path / "realizations" / "r0001.json").is_file()
+    assert not (tmp_path / "realizations" / "r0002.json").exists()
+    monkeypatch.setattr(runner, "run_realization", real)
+    res = pp.ensemble.run_study(tiny(), tmp_path)
+    assert res.computed == [2] and res.skipped == [0, 1]
+    assert_same(results(out, 3), results(tmp_path, 3))
+
+
+def test_changed_study_needs_force_and_more_realizations_extend(serial_run, tmp_path):
+    import shutil
+
+    out, _ = serial_run
+    shutil.copytree(out, tmp_path / "r", dirs_exist_ok=True)
+    r = tmp_path / "r"
+    # more realizations: spawn children do not depend on P, finished ones are reused
+    res = pp.ensemble.run_study(tiny(realizations=4), r)
+    assert res.computed == [3] and res.skipped == [0, 1, 2]
+    with pytest.raises(InvalidInputError, match="different study"):
+        pp.ensemble.run_study(tiny(seed=12, realizations=2), r)
+    res = pp.ensemble.run_study(tiny(seed=12, realizations=2), r, force=True)
+    assert res.computed == [0, 1]
+    assert not np.array_equal(positions(r, 0), positions(out, 0))
+
+
+def test_failing_realizations_are_reported_and_others_kept(tmp_path):
+    bad = tiny(realizations=2)
+    bad["analysis"]["rdf"]["r_max"] = 50.0  # larger than half the box: every analysis fails
+    with pytest.raises(PolypackError, match="2 of 2 realization"):
+        pp.ensemble.run_study(bad, tmp_path)
+
+
+def test_cli_run_and_resume(tmp_path, capsys):
+    from polypack.cli import main
+
+    f = tmp_path / "s.toml"
+    f.write_text(
+        '[study]\nname = "cli"\nseed = 2\nrealizations = 2\n[psd]\nsize_ratio = 0.5\nvolume_ratio = 0.5\nn = 100\n'
+        '[protocol]\nkind = "crm"\nvolume_fraction = 0.4\n[analysis.rdf]\nr_max = 0.8\ndr = 0.1\n'
+    )
+    main(["run", str(f), "--out", str(tmp_path / "o")])
+    text = capsys.readouterr().out
+    assert "2 computed, 0 reused" in text and str(tmp_path / "o") in text and "summary.csv" in text
+    assert (tmp_path / "o" / "ensemble" / "rdf.png").stat().st_size > 1000
+    main(["run", str(f), "--out", str(tmp_path / "o")])
+    assert "0 computed, 2 reused" in capsys.readouterr().out
