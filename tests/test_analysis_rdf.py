@@ -249,3 +249,18 @@ def test_half_shell_kernel_equals_general_kernel():
         slow = kern.pair_histogram(pos, np.ascontiguousarray(pk.radii), sp, box, pk.n_species, 2.5, 250, False, nc)
         assert np.array_equal(fast, slow)
         assert fast.sum() > 0
+
+
+def test_size_classes_for_continuous_distributions():
+    rng = np.random.default_rng(4)
+    rad = rng.uniform(0.1, 0.4, 3000)
+    pk = pp.Packing(rng.random((3000, 3)) * 15.0, rad, 15.0)
+    pc = pp.analysis.size_classes(pk, edges=[0.1, 0.2, 0.3, 0.4])
+    assert pc.n_species == 3
+    assert np.all(pc.radii[pc.species == 0] >= 0.3) and np.all(pc.radii[pc.species == 2] < 0.2)
+    assert np.array_equal(pc.positions, pk.positions)
+    g = pp.analysis.RDF(r_max=4.0, dr=0.5).compute(pc)
+    assert len(g.partial) == 9
+    assert pp.analysis.size_classes(pk, n_classes=4).n_species == 4
+    with pytest.raises(InvalidInputError, match="increasing"):
+        pp.analysis.size_classes(pk, edges=[0.3, 0.2])

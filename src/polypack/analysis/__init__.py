@@ -14,9 +14,9 @@ from __future__ import annotations
 from importlib import import_module as _import_module
 
 from .kfunction import KFunction
-from .rdf import RDF, contact_value, scaled_coordinate
+from .rdf import RDF, contact_value, scaled_coordinate, size_classes
 
-__all__ = ["KFunction", "RDF", "contact_value", "scaled_coordinate"]
+__all__ = ["KFunction", "RDF", "contact_value", "scaled_coordinate", "size_classes"]
 
 _LAZY = {
     "WindowCounts": "windows",

@@ -12,7 +12,7 @@ from ..errors import InvalidInputError
 from ._base import Estimator, PairMap, check_packing, check_positive, to_jsonable
 from ._paircounts import check_normalization, check_scale, pair_counts, pair_norms, species_radii
 
-__all__ = ["RDF", "contact_value", "scaled_coordinate"]
+__all__ = ["RDF", "contact_value", "scaled_coordinate", "size_classes"]
 
 METHODS = ("histogram", "right", "central")
 
@@ -41,6 +41,50 @@ def scaled_coordinate(r, a_k, a_m):
     ``R_km = r / a``.
     """
     return (np.asarray(r, dtype=np.float64) - a_k) / a_m + 1.0
+
+
+def size_classes(packing, n_classes=None, edges=None, spacing="geometric"):
+    """Copy of ``packing`` whose species are radius classes (for continuous distributions).
+
+    Partial RDFs of a continuous size distribution are defined between size
+    classes ("bins of species"); the contact-scaled RDF (``scale="contact"``) is the
+    alternative without binning.
+
+    Parameters
+    ----------
+    n_classes : int, optional
+        Number of classes between the smallest and largest radius.
+    edges : array_like, optional
+        Explicit increasing class edges (radii); spheres outside go to the end classes.
+    spacing : {"geometric", "linear"}
+        Spacing of the ``n_classes`` edges.
+
+    Returns
+    -------
+    Packing
+        Species 0 is the *largest* class (seed 000 numbers the large spheres 1).
+    """
+    check_packing(packing, min_n=1, what="size_classes")
+    rad = packing.radii
+    if edges is None:
+        if n_classes is None or int(n_classes) != n_classes or n_classes < 1:
+            raise InvalidInputError(f"n_classes={n_classes!r} must be an integer >= 1 (or give edges)")
+        lo, hi = float(rad.min()), float(rad.max())
+        if spacing == "geometric":
+            edges = np.geomspace(lo, hi, int(n_classes) + 1)
+        elif spacing == "linear":
+            edges = np.linspace(lo, hi, int(n_classes) + 1)
+        else:
+            raise InvalidInputError(f"spacing={spacing!r}: allowed are 'geometric' and 'linear'")
+    edges = np.asarray(edges, dtype=np.float64)
+    if edges.ndim != 1 or edges.size < 2 or np.any(np.diff(edges) <= 0):
+        raise InvalidInputError("edges must be an increasing 1-D array of at least 2 radii")
+    k = np.clip(np.searchsorted(edges, rad, side="right") - 1, 0, edges.size - 2)
+    species = (edges.size - 2) - k
+    used = np.unique(species)
+    remap = np.full(edges.size - 1, -1, np.int64)
+    remap[used] = np.arange(used.size)
+    return packing.replace(species=remap[species])
 
 
 class RDF(Estimator):
