@@ -146,3 +146,12 @@ def test_plots_return_axes(tmp_path):
     import matplotlib.pyplot as plt
 
     plt.close("all")
+
+
+def test_domain_marks_astronomic_counts_as_infinite():
+    dom = pp.psd.accessible_domain(0.999, [1.0, 40.0], [1.0, 40.0], dim=3, max_total=10**8)
+    assert np.isfinite(dom.n_total[0, 0]) and dom.mask[0, 0]
+    assert np.isinf(dom.n_total[1, 0]) and not dom.mask[1, 0]
+    assert json.dumps(dom.to_dict())
+    with pytest.raises(pp.InfeasibleError, match="N_p=.*e\\+"):
+        pp.psd.discretize(pp.psd.CumulativeBeta(1.0, 40.0, span=0.999))

@@ -147,7 +147,13 @@ def class_counts(model, n_classes=10, spacing="geometric", min_per_class=10, min
     if not np.any(live):
         raise InvalidInputError(f"{model!r}: no class carries volume")
     nmin = n_unit[live].min()
-    first = np.floor(min_per_class * n_unit / nmin * (1 + 1e-12)).astype(np.int64)
+    exact1 = min_per_class * n_unit / nmin
+    need = float(np.sum(exact1))
+    if not np.isfinite(need) or need > 1e18:
+        raise InfeasibleError(
+            f"the representativity criteria (n_classes={len(fv)}, spacing={spacing!r}, min_per_class={min_per_class}) "
+            f"need N_p={need:.3g} particles for {model!r}: beyond any computation")
+    first = np.floor(exact1 * (1 + 1e-12)).astype(np.int64)
     first[~live] = 0
     total1 = int(first.sum())
     if total1 < min_total:

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import InvalidInputError
+from ..errors import InfeasibleError, InvalidInputError
 from .classes import class_counts
 from .models import CumulativeBeta
 
@@ -17,8 +17,8 @@ __all__ = ["AccessibleDomain", "accessible_domain"]
 class AccessibleDomain:
     """Particle numbers ``N_p`` needed by the representativity criteria over a grid of (a, b).
 
-    ``n_total[j, i]`` is ``N_p`` for ``a = a_values[i]``, ``b = b_values[j]``; a shape is
-    accessible when ``N_p <= max_total`` (``mask``).
+    ``n_total[j, i]`` (float; ``inf`` beyond 1e18) is ``N_p`` for ``a = a_values[i]``,
+    ``b = b_values[j]``; a shape is accessible when ``N_p <= max_total`` (``mask``).
     """
 
     span: float
@@ -39,7 +39,7 @@ class AccessibleDomain:
 
     def to_dict(self) -> dict:
         return {"span": self.span, "a_values": self.a_values.tolist(), "b_values": self.b_values.tolist(),
-                "n_total": self.n_total.tolist(), "max_total": np.atleast_1d(self.max_total).tolist(),
+                "n_total": [[None if not np.isfinite(v) else int(v) for v in row] for row in self.n_total], "max_total": np.atleast_1d(self.max_total).tolist(),
                 "parameters": self.parameters}
 
     def plot(self, ax=None, **kw):
@@ -72,11 +72,14 @@ def accessible_domain(span, a_values=None, b_values=None, n_classes=10, spacing=
     limits = np.atleast_1d(np.asarray(max_total, dtype=np.int64))
     if np.any(limits < 1):
         raise InvalidInputError(f"max_total={max_total!r}: must be positive")
-    n = np.empty((b_values.size, a_values.size), np.int64)
+    n = np.empty((b_values.size, a_values.size), float)
     for j, b in enumerate(b_values):
         for i, a in enumerate(a_values):
             m = CumulativeBeta(a=a, b=b, span=span, d_max=1.0, dim=dim)
-            n[j, i] = class_counts(m, n_classes, spacing, min_per_class, min_total, dim, count_basis).total
+            try:
+                n[j, i] = class_counts(m, n_classes, spacing, min_per_class, min_total, dim, count_basis).total
+            except InfeasibleError:  # more than 1e18 particles
+                n[j, i] = np.inf
     params = {"n_classes": n_classes, "spacing": spacing, "min_per_class": min_per_class, "min_total": min_total,
               "dim": dim, "count_basis": count_basis}
     mt = int(limits[0]) if limits.size == 1 else limits.tolist()

@@ -103,7 +103,7 @@ def plot_accessible_domain(domain, ax=None):
     """log10 N_p over (a, b) with the boundary N_p = N_p^max for each limit (Fig. 8 of 001)."""
     ax = _ax(ax)
     A, B = np.meshgrid(domain.a_values, domain.b_values)
-    z = np.log10(np.maximum(domain.n_total, 1))
+    z = np.log10(np.clip(domain.n_total, 1, 1e18))
     pc = ax.pcolormesh(A, B, z, shading="auto", cmap="viridis")
     ax.figure.colorbar(pc, ax=ax, label="log10 N_p")
     limits = np.atleast_1d(domain.max_total)
