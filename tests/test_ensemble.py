@@ -210,3 +210,24 @@ def test_cli_run_and_resume(tmp_path, capsys):
     assert (tmp_path / "o" / "ensemble" / "rdf.png").stat().st_size > 1000
     main(["run", str(f), "--out", str(tmp_path / "o")])
     assert "0 computed, 2 reused" in capsys.readouterr().out
+
+
+def test_scrm_study_serial_equals_two_processes(tmp_path):
+    _require("polypack.generate.shake", "scrm")
+    study = tiny(realizations=2, kind="scrm", volume_fraction=0.5, global_shakes=3, growth_steps=3)
+    a = pp.ensemble.run_study(study, tmp_path / "a")
+    pp.ensemble.run_study(study, tmp_path / "b", workers=2)
+    assert_same(results(tmp_path / "a", 2), results(tmp_path / "b", 2))
+    rec = a.records[0]
+    assert rec["protocol"]["scrm.global_shakes"] == 3 and rec["protocol"]["scrm.stages"] == 3
+    assert 0 < rec["protocol"]["shake.acceptance_rate.1"] <= 1
+    assert rec["volume_fraction"] == pytest.approx(0.5, rel=1e-9)
+    pk = pp.io.read(tmp_path / "a" / "realizations" / "r0000.gsd")
+    assert pk.min_gap() >= 0
+
+
+def test_crm_with_global_shakes(tmp_path):
+    _require("polypack.generate.shake", "shake")
+    study = tiny(realizations=1, global_shakes=2)
+    res = pp.ensemble.run_study(study, tmp_path)
+    assert res.records[0]["protocol"]["shake.global_shakes"] == 2

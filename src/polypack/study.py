@@ -58,8 +58,10 @@ Schema
     ``kind = "crm" | "scrm"``, ``volume_fraction`` (in (0, 1) or ``"jammed"``),
     ``growth_rate`` (> 0), ``max_seconds`` (wall-clock budget of the growth, > 0),
     ``global_shakes`` (M >= 0; for ``"crm"`` a positive M shakes the finished pack),
-    ``shake_radius`` (> 0), ``max_trials`` (>= 1), ``shake_method`` (str),
-    ``schedule`` (SCRM growth/shake schedule: list of volume fractions, increasing).
+    ``shake_radius`` (> 0), ``max_trials`` (>= 1), ``shake_method`` (str), ``adaptive`` (bool);
+    SCRM only: ``schedule`` (increasing volume fractions of the growth stages; the target is
+    appended), or ``growth_steps`` (>= 1) from ``start_fraction``; ``stage_shakes`` (global
+    shakes after each stage).
 ``[analysis.rdf]``
     ``r_max`` (> 0, user length units), ``dr`` (> 0), ``method``, ``scale``.
 ``[analysis.kfunction]``
@@ -300,7 +302,11 @@ SCHEMA = {
         "shake_radius": Field(positive, None),
         "max_trials": Field(int_min(1), None),
         "shake_method": Field(string, None),
+        "adaptive": Field(boolean, None),
         "schedule": Field(schedule, None),
+        "growth_steps": Field(int_min(1), None),
+        "start_fraction": Field(fraction_open, None),
+        "stage_shakes": Field(int_min(0), None),
     },
     "analysis.rdf": {
         "r_max": Field(positive, 3.0),
@@ -438,8 +444,12 @@ def _all_model_params():
 def _check_protocol(pr):
     kind = pr["kind"]
     pr.setdefault("global_shakes", _DEFAULT_SHAKES[kind])
-    if kind == "crm" and "schedule" in pr:
-        raise InvalidInputError('protocol.schedule: only used with protocol.kind = "scrm"')
+    if kind == "crm":
+        for key in ("schedule", "growth_steps", "start_fraction", "stage_shakes"):
+            if key in pr:
+                raise InvalidInputError(f'protocol.{key}: only used with protocol.kind = "scrm"')
+    elif pr["volume_fraction"] == "jammed":
+        raise InvalidInputError('protocol.volume_fraction = "jammed": SCRM needs a number in (0, 1)')
     if isinstance(pr["volume_fraction"], float) and "schedule" in pr:
         if pr["schedule"][-1] > pr["volume_fraction"]:
             raise InvalidInputError(

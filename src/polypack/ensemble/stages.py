@@ -9,8 +9,10 @@ or on a Dask worker.
 
 from __future__ import annotations
 
+import contextlib
 import inspect
 import math
+import threading
 
 import numpy as np
 
@@ -19,10 +21,41 @@ from ..errors import InvalidInputError
 
 __all__ = ["make_sizes", "make_packing", "run_analyses", "realize", "stage_seeds", "check_available"]
 
-# the packer synchronises (and rescales velocities) at chunk boundaries; chunks sized from
-# the measured collision rate would make the trajectory depend on the machine load, so the
-# runner asks for chunks that do not depend on the wall clock (see make_packing)
+# The packer synchronises (and rescales velocities) at chunk boundaries, and sizes its
+# chunks from the measured collision rate, so its trajectory depends on the machine load.
+# A realization must not: the runner asks for chunks that do not depend on the wall clock
+# (the first chunk has a fixed collision count, the next one is large enough to finish).
+# Cost: Ctrl-C and max_seconds act only at the end of a pack.
 _DETERMINISTIC_PACK = {"chunk_seconds": 1e9}
+_det_lock = threading.Lock()
+_det_depth = [0, None]
+
+
+@contextlib.contextmanager
+def deterministic_packing():
+    """Within the block, :func:`polypack.pack` uses wall-clock-independent chunks.
+
+    Needed for :func:`polypack.scrm`, which calls ``pack`` without passing options
+    through.  Reference-counted, so concurrent realizations in threads are safe.
+    """
+    from ..generate import lubachevsky as lub
+
+    defaults = getattr(lub, "_DEFAULTS", None)
+    if not isinstance(defaults, dict) or "chunk_seconds" not in defaults:
+        yield
+        return
+    with _det_lock:
+        if _det_depth[0] == 0:
+            _det_depth[1] = defaults["chunk_seconds"]
+            defaults["chunk_seconds"] = _DETERMINISTIC_PACK["chunk_seconds"]
+        _det_depth[0] += 1
+    try:
+        yield
+    finally:
+        with _det_lock:
+            _det_depth[0] -= 1
+            if _det_depth[0] == 0:
+                defaults["chunk_seconds"] = _det_depth[1]
 
 
 def stage_seeds(seed_rec):
@@ -61,7 +94,8 @@ def _accepted(func, kwargs):
 
 def _shake_options(pr):
     opts = {}
-    for key, arg in (("shake_radius", "shake_radius"), ("max_trials", "max_trials"), ("shake_method", "method")):
+    for key, arg in (("shake_radius", "shake_radius"), ("max_trials", "max_trials"), ("shake_method", "method"),
+                     ("adaptive", "adaptive")):
         if key in pr:
             opts[arg] = pr[key]
     return opts
@@ -92,13 +126,15 @@ def check_available(study_data):
             raise InvalidInputError(
                 f'protocol.kind = "{pr["kind"]}": polypack.{name} is not available in this installation'
             ) from None
-    if "schedule" in pr:
+    for key in ("schedule", "growth_steps", "start_fraction", "stage_shakes"):
+        if key not in pr:
+            continue
         try:
             scrm = pp.scrm
         except (ImportError, AttributeError):
-            raise InvalidInputError("protocol.schedule: needs polypack.scrm, not available here") from None
-        if "schedule" not in _accepted(scrm, {"schedule": 1}):
-            raise InvalidInputError("protocol.schedule: not supported by this polypack.scrm")
+            raise InvalidInputError(f"protocol.{key}: needs polypack.scrm, not available here") from None
+        if key not in _accepted(scrm, {key: 1}):
+            raise InvalidInputError(f"protocol.{key}: not supported by this polypack.scrm")
     try:
         from .. import psd as psd_mod  # noqa: F401
         from ..study import PSD_MODELS
@@ -142,12 +178,21 @@ def make_packing(sizes, protocol: dict, seed):
         except (ImportError, AttributeError):
             scrm = None
         if scrm is not None:
-            kw = dict(grow, global_shakes=m, **_shake_options(pr))
+            kw = dict(global_shakes=m, **_shake_options(pr))
+            if "growth_rate" in pr:
+                kw["growth_rate"] = pr["growth_rate"]
+            for key in ("growth_steps", "start_fraction", "stage_shakes"):
+                if key in pr:
+                    kw[key] = pr[key]
             if "schedule" in pr:
-                kw["schedule"] = pr["schedule"]
-            kw = dict(_accepted(scrm, dict(_DETERMINISTIC_PACK)), **kw)
-            return scrm(sizes, volume_fraction=pr["volume_fraction"], seed=s_pack, progress=False, **kw)
-    pk = pp.pack(sizes, pr["volume_fraction"], seed=s_pack, progress=False, **grow, **_DETERMINISTIC_PACK)
+                sched = list(pr["schedule"])
+                if sched[-1] < pr["volume_fraction"]:
+                    sched.append(pr["volume_fraction"])
+                kw["schedule"] = sched
+            with deterministic_packing():
+                return scrm(sizes, volume_fraction=pr["volume_fraction"], seed=s_pack, progress=False, **kw)
+    with deterministic_packing():
+        pk = pp.pack(sizes, pr["volume_fraction"], seed=s_pack, progress=False, **grow)
     if m > 0:
         pk = pp.shake(pk, global_shakes=m, seed=s_shake, progress=False, **_shake_options(pr))
     return pk
@@ -218,16 +263,44 @@ def _jsonable(v):
     return None
 
 
+def _is_num(v):
+    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+
+
 def protocol_stats(meta: dict) -> dict:
-    """Scalar run statistics of the protocol (status, collisions, pressures, shake acceptance ...)."""
+    """Scalar run statistics of the protocol for the summary table.
+
+    Top-level ``meta`` scalars (the packer's: status, collisions, reduced pressure ...)
+    keep their names; ``meta["shake"]`` and ``meta["scrm"]`` scalars get a ``shake.`` /
+    ``scrm.`` prefix; per-shake histories give their last row per species
+    (``shake.acceptance_rate.0``), the contact-value monitor its last value per pair.
+    """
     out = {}
     for k, v in meta.items():
-        if k in ("seed", "history"):
+        if k in ("seed", "history") or isinstance(v, (list, dict, tuple, np.ndarray)):
             continue
-        j = _jsonable(v)
-        if j is not None or v is None:
-            if not isinstance(v, (list, dict, tuple, np.ndarray)):
-                out[k] = j
+        out[k] = _jsonable(v)
+    for sub in ("shake", "scrm"):
+        d = meta.get(sub)
+        if not isinstance(d, dict):
+            continue
+        for k, v in d.items():
+            if k in ("seed", "generator"):
+                continue
+            if _is_num(v) or isinstance(v, (str, bool)):
+                out[f"{sub}.{k}"] = _jsonable(v)
+            elif isinstance(v, list) and v and all(_is_num(e) for e in v) and k != "schedule":
+                for i, e in enumerate(v):
+                    out[f"{sub}.{k}.{i}"] = _jsonable(e)
+            elif isinstance(v, list) and v and isinstance(v[-1], list) and all(_is_num(e) for e in v[-1]):
+                for i, e in enumerate(v[-1]):
+                    out[f"{sub}.{k}.{i}"] = _jsonable(e)
+            elif k == "monitor" and isinstance(v, dict) and isinstance(v.get("contact_value"), dict):
+                for pair, vals in v["contact_value"].items():
+                    if isinstance(vals, list) and vals and _is_num(vals[-1]):
+                        out[f"{sub}.contact_value.{pair}"] = _jsonable(vals[-1])
+            elif k == "stages" and isinstance(v, list):
+                out[f"{sub}.stages"] = len(v)
     return out
 
 
