@@ -284,3 +284,20 @@ def test_other_bad_input():
         pp.psd.CumulativeBeta(1, 1, span=0.5).quantile(1.5)
     with pytest.raises(InvalidInputError, match="dim=4"):
         pp.psd.UniformVolume(0.1, 1, dim=4)
+
+
+def test_discrete_fraction_conversions_round_trip():
+    sizes, c = [1.0, 0.313], [0.75, 0.25]
+    x = pp.psd.volume_to_number_fractions(sizes, c)
+    assert x[0] == pytest.approx(1 / (1 + (0.25 / 0.75) / 0.313**3), rel=1e-14)
+    np.testing.assert_allclose(pp.psd.number_to_volume_fractions(sizes, x), c, rtol=1e-14)
+    np.testing.assert_allclose(pp.psd.volume_to_number_fractions(sizes, c, dim=2)[0], 1 / (1 + (1 / 3) / 0.313**2))
+    m = pp.psd.Mixture(sizes, c)
+    np.testing.assert_allclose(m.number_fractions, x, rtol=1e-14)
+
+
+def test_fraction_between_is_eq6():
+    m = pp.psd.CumulativeBeta(2, 3, span=0.5)
+    lo, hi = 0.5, 0.7
+    assert m.fraction_between(lo, hi) == pytest.approx(float(m.grading(hi) - m.grading(lo)))
+    assert m.fraction_between(lo, hi, "number") == pytest.approx(float(m.number_cdf(hi) - m.number_cdf(lo)))

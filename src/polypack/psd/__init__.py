@@ -26,10 +26,12 @@ from .models import (
     SizeDistribution,
     UniformSize,
     UniformVolume,
+    number_to_volume_fractions,
     ratio_from_span,
     span_from_ratio,
     uv_cdf,
     uv_ppf,
+    volume_to_number_fractions,
 )
 from .plots import plot_class_histogram, plot_grading, plot_hazen_vs_span
 from .sizeset import SizeSet
@@ -37,6 +39,7 @@ from .sizeset import SizeSet
 __all__ = [
     "SizeDistribution", "CumulativeBeta", "UniformVolume", "UniformSize", "LogNormal", "Normal",
     "Monodisperse", "Mixture", "Bimodal", "SieveTable", "ratio_from_span", "span_from_ratio", "uv_cdf", "uv_ppf",
+    "volume_to_number_fractions", "number_to_volume_fractions",
     "SizeSet", "class_bounds", "class_volume_fractions", "class_counts", "ClassCounts", "discretize",
     "hazen", "regression_coefficient", "moment", "polydispersity", "skewness", "describe",
     "accessible_domain", "AccessibleDomain", "plot_grading", "plot_class_histogram", "plot_hazen_vs_span",

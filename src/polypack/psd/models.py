@@ -50,6 +50,8 @@ __all__ = [
     "SieveTable",
     "span_from_ratio",
     "ratio_from_span",
+    "volume_to_number_fractions",
+    "number_to_volume_fractions",
 ]
 
 # Gauss-Legendre nodes on [0, 1] used by the composite quadrature.
@@ -294,13 +296,14 @@ class SizeDistribution:
         return self._ppf_clipped(p) if self.basis == "number" else self._other_ppf(p)
 
     # -- conversions ------------------------------------------------------------------------
-    def number_to_volume_fraction(self, d_lo, d_hi):
-        """Volume fraction of the particles with ``d_lo <= d < d_hi`` (``h(d_hi) - h(d_lo)``, Eq. (6) of 001)."""
-        return self.grading(d_hi) - self.grading(d_lo)
+    def fraction_between(self, d_lo, d_hi, basis="volume"):
+        """Fraction of the particles (by ``basis``) with ``d_lo < d <= d_hi``.
 
-    def number_fraction(self, d_lo, d_hi):
-        """Number fraction of the particles with ``d_lo <= d < d_hi``."""
-        return self.number_cdf(d_hi) - self.number_cdf(d_lo)
+        By volume this is ``h(d_hi) - h(d_lo)``, the class fraction of Eq. (6) of 001.
+        """
+        basis = _check_basis(basis)
+        cdf = self.grading if basis == "volume" else self.number_cdf
+        return cdf(d_hi) - cdf(d_lo)
 
     # -- moments ----------------------------------------------------------------------------
     def moment(self, k, basis="number"):
@@ -695,6 +698,26 @@ class Normal(SizeDistribution):
 
     def _ppf(self, p):
         return self._law.ppf(p)
+
+
+def volume_to_number_fractions(sizes, volume_fractions, dim=3):
+    """Number fractions of monodisperse modes from their volume fractions: ``x_k ∝ c_k / d_k**dim``.
+
+    For seed 000's bimodal mix (λ = 0.313, ξ = 0.333) the large spheres are
+    ``1 / (1 + ξ/λ**3)`` = 8.4 % of the particles.
+    """
+    d = np.asarray(sizes, float)
+    c = np.asarray(volume_fractions, float)
+    x = c / d ** _check_dim(dim)
+    return x / x.sum()
+
+
+def number_to_volume_fractions(sizes, number_fractions, dim=3):
+    """Volume fractions of monodisperse modes from their number fractions: ``c_k ∝ x_k d_k**dim``."""
+    d = np.asarray(sizes, float)
+    x = np.asarray(number_fractions, float)
+    c = x * d ** _check_dim(dim)
+    return c / c.sum()
 
 
 class Monodisperse(SizeDistribution):
