@@ -77,3 +77,10 @@ def test_cli_config_unknown_key(tmp_path, capsys):
         main(["psd", "--config", str(cfg), "-o", str(tmp_path / "x.csv")])
     err = capsys.readouterr().err
     assert "psd.shape: unknown key; allowed:" in err
+
+
+def test_cli_unknown_option_is_a_usage_error(tmp_path, capsys):
+    with pytest.raises(SystemExit) as e:
+        main(["psd", "--shape", "3", "-o", str(tmp_path / "x.csv")])
+    assert e.value.code == 2
+    assert "No such option: --shape" in capsys.readouterr().err

@@ -88,10 +88,17 @@ def main(argv=None):
     except Exception as exc:  # click usage errors and friends
         import click
 
-        if isinstance(exc, click.exceptions.ClickException):
+        click_errors, aborts = [click.exceptions.ClickException], [click.exceptions.Abort]
+        try:  # typer >= 0.29 raises the exceptions of its vendored click copy
+            from typer._click import exceptions as _vendored
+
+            click_errors.append(_vendored.ClickException)
+        except ImportError:  # pragma: no cover
+            pass
+        if isinstance(exc, tuple(click_errors)):
             exc.show()
             sys.exit(exc.exit_code)
-        if isinstance(exc, click.exceptions.Abort):
+        if isinstance(exc, tuple(aborts)):
             typer.echo("aborted", err=True)
             sys.exit(1)
         raise
