@@ -1,0 +1,523 @@
+"""Monte-Carlo shaking and the shaking collective rearrangement model (SCRM).
+
+Implements §3.2 of 000_2cedc098acbd866b.txt: every sphere in turn is given a small
+random displacement inside its shake window ``|x' - x_i| < R_sh^(k) a^(k)`` and
+the move is kept if the sphere overlaps no neighbour (the "global shake" passes
+once over all spheres).  Shaking destroys the dense "locked" local arrangements
+that growth algorithms (CRM, :func:`polypack.pack`) leave behind: the contact peak
+``g(2a+)`` falls and the window counts ``p(n_h)`` narrow (§5 and Figs. 1, 2, 4 of
+000_2cedc098acbd866b.txt).  :func:`scrm` alternates growth and shaking.
+
+The numerical engine is :mod:`polypack._kernels.shake`.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from .._util import as_seed_sequence, progress_bar, seed_record
+from ..errors import InvalidInputError, OverlapError
+from ..packing import Packing
+
+__all__ = ["shake", "scrm", "METHODS"]
+
+METHODS = ("paper", "collision", "metropolis")
+_METHOD_CODE = {"paper": 0, "collision": 1, "metropolis": 2}
+_ORDER_CODE = {"sequential": 0, "random": 1}
+_DEFAULT_RADIUS = {"paper": 0.02, "collision": 0.05, "metropolis": 0.05}
+_DEFAULT_TRIALS = {"paper": 150, "collision": 1, "metropolis": 1}
+_DEFAULT_ORDER = {"paper": "sequential", "collision": "sequential", "metropolis": "random"}
+_RSH_MIN = 1e-4
+#: Relative overlap tolerated in an *input* pack (round-off of a touching pair).
+INPUT_OVERLAP_TOLERANCE = 1e-12
+
+
+def _per_species(name, value, n_species, kind=float):
+    """Broadcast a scalar or per-species sequence to a (K,) array."""
+    arr = np.atleast_1d(np.asarray(value, dtype=object))
+    if arr.ndim != 1 or (arr.size != 1 and arr.size != n_species):
+        raise InvalidInputError(
+            f"{name}={value!r}: give one value or one per species ({n_species} species)"
+        )
+    try:
+        out = np.array([kind(v) for v in arr], dtype=np.float64 if kind is float else np.int64)
+    except (TypeError, ValueError):
+        raise InvalidInputError(f"{name}={value!r}: must be numeric") from None
+    if kind is int and not all(float(v) == int(v) for v in arr):
+        raise InvalidInputError(f"{name}={value!r}: must be integers")
+    if out.size == 1:
+        out = np.full(n_species, out[0], dtype=out.dtype)
+    return out
+
+
+def _check_int(name, value, minimum):
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+        if isinstance(value, float) and value.is_integer():
+            value = int(value)
+        else:
+            raise InvalidInputError(f"{name}={value!r}: must be an integer >= {minimum}")
+    if value < minimum:
+        raise InvalidInputError(f"{name}={value!r}: must be an integer >= {minimum}")
+    return int(value)
+
+
+def _contact_monitor(packing, width, pairs):
+    from ..analysis import contact_value
+
+    vals = contact_value(packing, pairs=pairs, width=width, n_bins=10, degree=1)
+    return {f"{k}-{m}": float(vals[(k, m)]) for k, m in pairs}
+
+
+def shake(
+    packing,
+    global_shakes=60,
+    shake_radius=None,
+    max_trials=None,
+    method="paper",
+    seed=None,
+    progress=None,
+    *,
+    order=None,
+    adaptive=False,
+    adapt_shakes=None,
+    adapt_factor=0.05,
+    target_acceptance=0.4,
+    skin=None,
+    monitor_every=None,
+    monitor_width=0.05,
+    callback=None,
+) -> Packing:
+    """Monte-Carlo shaking of a hard-sphere pack (§3.2 of 000_2cedc098acbd866b.txt).
+
+    One *global shake* visits every sphere once.  A visit of sphere ``i`` of species
+    ``k`` tries to move its centre inside the shake window of radius
+    ``R_sh^(k) a_i`` and keeps the move if the sphere overlaps no other sphere.
+    The overlap test is exact: it uses a size-aware Verlet list that is rebuilt
+    whenever a sphere could reach a partner outside it, which is equivalent to the
+    seed's testing window ``r_t^(km) = (1 + R_sh^(k)) a^(k) + a^(m)`` re-estimated
+    after every local shake.
+
+    Parameters
+    ----------
+    packing : Packing
+        A non-overlapping pack (relative overlaps up to ``1e-12`` from round-off
+        are tolerated and never made worse).
+    global_shakes : int
+        ``M``, the number of passes over all spheres (default 60, as in §5.3 of
+        000_2cedc098acbd866b.txt).
+    shake_radius : float or sequence of float, optional
+        ``R_sh^(k)``, the shake-window radius in units of the sphere radius
+        (dimensionless, > 0), one value or one per species.  Defaults: 0.02 for
+        ``"paper"`` (the seed's optimum), 0.05 otherwise.
+    max_trials : int or sequence of int, optional
+        ``N_sh^(k)``: trials per visit (``"paper"``: default 150, the seed's value;
+        ``"collision"``: number of random directions of which the one with the
+        longest free flight is taken, default 1; ``"metropolis"``: must be 1).
+    method : {"paper", "collision", "metropolis"}
+        ``"paper"``: displacement uniform in the shake window, retried until the
+        sphere fits or ``N_sh`` trials fail (the seed's procedure).
+        ``"collision"``: the collision-limited shake of Eq. (9) of
+        000_2cedc098acbd866b.txt: a random direction ``u``, the free flight ``Δt``
+        to the first contact along it, an amplitude uniform in
+        ``[0, min(Δt, R_sh a_i)]``.
+        ``"metropolis"``: one trial per visit with a symmetric proposal, accepted
+        iff no overlap; satisfies detailed balance (random order) or balance
+        (sequential order) and samples the equilibrium hard-sphere fluid.
+    seed : int or numpy.random.SeedSequence, optional
+        Recorded in ``meta["shake"]["seed"]``; the result is reproducible bit for
+        bit for a given seed and input on one platform.
+    progress : bool, optional
+        Progress bar over global shakes (default: only on a terminal).
+    order : {"sequential", "random"}, optional
+        Visit the spheres in index order (the seed's "each sphere in turn";
+        default for paper and collision) or pick ``N`` spheres uniformly at random
+        per global shake (default for metropolis).
+    adaptive : bool
+        Adapt ``R_sh^(k)``.  Paper and collision: as the seed describes, after each
+        visit compare the free flight along the (first) trial direction with the
+        window ``R_sh a_i``: grow ``R_sh^(k)`` by the factor ``1 + adapt_factor`` if
+        it is longer, shrink it otherwise (``R_sh`` tends to the median free
+        flight).  Metropolis: after each global shake scale ``R_sh^(k)`` by the
+        ratio of the measured to the target acceptance (clipped to [0.7, 1.4]).
+        Adaptation stops after ``adapt_shakes`` global shakes.
+    adapt_shakes : int, optional
+        Global shakes during which ``R_sh`` adapts: default all for paper and
+        collision; ``global_shakes // 2`` for metropolis, whose later shakes then
+        run with a fixed step (detailed balance) — use them for sampling.
+    adapt_factor : float
+        Growth factor per visit of the seed's adaptation (default 0.05).
+    target_acceptance : float
+        Target acceptance of the Metropolis adaptation (default 0.4).
+    skin : float, optional
+        Relative Verlet skin ``s`` (pairs with ``d <= (1 + s)(r_i + r_j)`` are
+        listed); default ``max(0.2, 3 max R_sh)``, capped by the box.  Affects speed
+        only.
+    monitor_every : int, optional
+        Record the contact values ``g_km(a_k + a_m)+`` (via
+        :func:`polypack.analysis.contact_value`) every this many global shakes;
+        default ``None`` records only before and after, ``0`` never.
+    monitor_width : float
+        Relative-gap window of the contact-value extrapolation (default 0.05).
+    callback : callable, optional
+        ``callback(m, packing)`` after every global shake ``m = 1..M``.
+
+    Returns
+    -------
+    Packing
+        Same N, radii, species and box; new positions.  ``meta["shake"]`` holds
+        the run record: ``method``, ``seed``, ``global_shakes``, ``shake_radius``
+        (initial) and ``final_shake_radius`` per species, ``max_trials``,
+        ``order``, ``skin``, per global shake and species ``acceptance_rate``
+        (accepted / trials), ``moved_fraction`` (visits with a move / visits),
+        ``mean_displacement`` (mean accepted ``|Δx| / a_i``), ``net_displacement``
+        (rms displacement since the start over ``a_i``), ``shake_radius_history``;
+        ``monitor`` (``global_shake`` and ``contact_value`` per pair ``"k-m"``),
+        ``trials``, ``trial_moves_per_second``, ``wall_time``, ``rebuilds``,
+        ``min_gap``.  ``meta["history"]`` gets a summary entry.
+
+    Raises
+    ------
+    InvalidInputError
+        Bad parameters (non-positive shake radius, zero trials, unknown method, ...).
+    OverlapError
+        If the input pack overlaps, or (never expected) the output does.
+    """
+    from .._kernels import shake as kern
+    from ..neighbors import choose_cells
+
+    wall0 = time.perf_counter()
+    if not isinstance(packing, Packing):
+        raise InvalidInputError(
+            f"shake needs a polypack.Packing, got {type(packing).__name__}; build one with polypack.Packing(...)"
+        )
+    if packing.n < 2:
+        raise InvalidInputError(f"shake needs at least 2 spheres, got {packing.n}")
+    if method not in _METHOD_CODE:
+        raise InvalidInputError(f"method={method!r}: allowed are {', '.join(map(repr, METHODS))}")
+    global_shakes = _check_int("global_shakes", global_shakes, 0)
+    ns = packing.n_species
+    rsh = _per_species("shake_radius", _DEFAULT_RADIUS[method] if shake_radius is None else shake_radius, ns)
+    if not np.all(np.isfinite(rsh)) or np.any(rsh <= 0):
+        bad = float(rsh[~(np.isfinite(rsh) & (rsh > 0))][0])
+        raise InvalidInputError(
+            f"shake_radius={bad!r}: must be finite and > 0 (in units of the sphere radius)"
+        )
+    trials = _per_species("max_trials", _DEFAULT_TRIALS[method] if max_trials is None else max_trials, ns, int)
+    if np.any(trials < 1):
+        raise InvalidInputError(f"max_trials={max_trials!r}: must be >= 1 trial per visit")
+    if method == "metropolis" and np.any(trials != 1):
+        raise InvalidInputError(
+            f"max_trials={max_trials!r}: metropolis makes exactly one trial per move (retrying breaks detailed "
+            "balance); use method='paper' for repeated trials"
+        )
+    order = _DEFAULT_ORDER[method] if order is None else order
+    if order not in _ORDER_CODE:
+        raise InvalidInputError(f"order={order!r}: allowed are 'sequential' and 'random'")
+    if adapt_shakes is None:
+        adapt_shakes = global_shakes // 2 if method == "metropolis" else global_shakes
+    adapt_shakes = _check_int("adapt_shakes", adapt_shakes, 0)
+    adapt_factor = float(adapt_factor)
+    if not (0 < adapt_factor < 1):
+        raise InvalidInputError(f"adapt_factor={adapt_factor!r}: must be in (0, 1)")
+    target_acceptance = float(target_acceptance)
+    if not (0 < target_acceptance < 1):
+        raise InvalidInputError(f"target_acceptance={target_acceptance!r}: must be in (0, 1)")
+    if monitor_every is not None:
+        monitor_every = _check_int("monitor_every", monitor_every, 0)
+    monitor_width = float(monitor_width)
+    if not (0 < monitor_width <= 0.5):
+        raise InvalidInputError(f"monitor_width={monitor_width!r}: must be in (0, 0.5]")
+    if callback is not None and not callable(callback):
+        raise InvalidInputError(f"callback={callback!r}: must be callable as callback(m, packing)")
+    ss = as_seed_sequence(seed)
+
+    radii = np.ascontiguousarray(packing.radii, dtype=np.float64)
+    box = np.ascontiguousarray(packing.box, dtype=np.float64)
+    species = np.ascontiguousarray(packing.species, dtype=np.int64)
+    gap_in, pair_in = packing.closest_pair()
+    if gap_in < -INPUT_OVERLAP_TOLERANCE:
+        raise OverlapError(
+            f"input pack overlaps: spheres {pair_in[0]} and {pair_in[1]} have relative gap {gap_in:.3e} "
+            f"(allowed >= {-INPUT_OVERLAP_TOLERANCE:g}); shaking needs a non-overlapping pack"
+        )
+
+    # Verlet skin: at least the largest window, capped so that the list reach stays below L/2
+    s_cap = float(box.min()) / (4.0 * float(radii.max())) - 1.0
+    rsh_top = float(rsh.max())
+    if skin is None:
+        s = min(max(0.2, 3.0 * rsh_top), s_cap)
+    else:
+        s = float(skin)
+        if not (np.isfinite(s) and s > 0):
+            raise InvalidInputError(f"skin={skin!r}: must be finite and > 0")
+        if s > s_cap:
+            raise InvalidInputError(f"skin={s:g} exceeds {s_cap:g}, the largest the box allows")
+    if rsh_top > s:
+        raise InvalidInputError(
+            f"shake_radius={rsh_top:g} exceeds the neighbour skin {s:g} (the box allows at most "
+            f"{s_cap:g}); use a smaller shake_radius or a larger pack"
+        )
+    reach_small = 2.0 * (1.0 + s) * float(np.percentile(radii, 10))
+    ncell = np.ascontiguousarray(choose_cells(box, packing.n, reach_small), dtype=np.int64)
+
+    pos = np.array(packing.positions, dtype=np.float64, order="C")
+    since = np.zeros_like(pos)
+    net = np.zeros_like(pos)
+    rng = ss.generate_state(4, np.uint64)
+    start, idx = kern.build_list(pos, radii, box, s, ncell)
+    rebuilds = 0
+
+    counts = np.bincount(species, minlength=ns).astype(np.float64)
+    present = [k for k in range(ns) if counts[k] > 0]
+    pairs = [(k, m) for ki, k in enumerate(present) for m in present[ki:]]
+    monitor = {"global_shake": [], "contact_value": {f"{k}-{m}": [] for k, m in pairs}}
+
+    def record(m, pk):
+        monitor["global_shake"].append(m)
+        vals = _contact_monitor(pk, monitor_width, pairs)
+        for key, v in vals.items():
+            monitor["contact_value"][key].append(v)
+
+    if monitor_every != 0:
+        record(0, packing)
+
+    rsh0 = rsh.copy()
+    hist = {"acceptance_rate": [], "moved_fraction": [], "mean_displacement": [], "net_displacement": [],
+            "shake_radius_history": []}
+    total_trials = 0.0
+    kernel_time = 0.0
+    code, ocode = _METHOD_CODE[method], _ORDER_CODE[order]
+    r2 = radii**2
+    cur = packing
+
+    def nanlist(a):
+        return [None if not math.isfinite(x) else float(x) for x in a]
+
+    bar = progress_bar(total=global_shakes, desc=f"shake ({method})", progress=progress, unit="shake")
+    try:
+        for m in range(1, global_shakes + 1):
+            adapting = bool(adaptive) and m <= adapt_shakes
+            stats = np.zeros((1, ns, kern.N_STATS))
+            t0 = time.perf_counter()
+            start, idx, nreb = kern.shake_sweeps(
+                pos, since, radii, species, box, rsh, start, idx, s, ncell, code, ocode, trials, 1,
+                adapting and method != "metropolis", adapt_factor, _RSH_MIN, s, rng, net, stats,
+            )
+            kernel_time += time.perf_counter() - t0
+            rebuilds += int(nreb)
+            st = stats[0]
+            total_trials += float(st[:, kern.ST_TRIALS].sum())
+            with np.errstate(invalid="ignore", divide="ignore"):
+                acc = st[:, kern.ST_ACCEPTED] / st[:, kern.ST_TRIALS]
+                moved = st[:, kern.ST_MOVED] / st[:, kern.ST_VISITS]
+                mdisp = st[:, kern.ST_DISP] / st[:, kern.ST_ACCEPTED]
+                netd = np.sqrt(np.bincount(species, weights=(net * net).sum(axis=1) / r2, minlength=ns) / counts)
+            if adapting and method == "metropolis":
+                for k in range(ns):
+                    if st[k, kern.ST_TRIALS] > 0:
+                        fac = min(1.4, max(0.7, acc[k] / target_acceptance))
+                        rsh[k] = min(s_cap, max(_RSH_MIN, rsh[k] * fac))
+            if adapting and 2.0 * float(rsh.max()) > s and s < s_cap:
+                # the window grew: widen the Verlet skin so that rebuilds stay rare
+                s = min(s_cap, 3.0 * float(rsh.max()))
+                reach_small = 2.0 * (1.0 + s) * float(np.percentile(radii, 10))
+                ncell = np.ascontiguousarray(choose_cells(box, packing.n, reach_small), dtype=np.int64)
+                start, idx = kern.build_list(pos, radii, box, s, ncell)
+                since[:] = 0.0
+                rebuilds += 1
+            hist["acceptance_rate"].append(nanlist(acc))
+            hist["moved_fraction"].append(nanlist(moved))
+            hist["mean_displacement"].append(nanlist(mdisp))
+            hist["net_displacement"].append(nanlist(netd))
+            hist["shake_radius_history"].append([float(x) for x in rsh])
+            need_pk = callback is not None or (monitor_every and m % monitor_every == 0)
+            if need_pk:
+                cur = packing.replace(positions=pos)
+                if monitor_every and m % monitor_every == 0:
+                    record(m, cur)
+                if callback is not None:
+                    callback(m, cur)
+            bar.update(1)
+            if bar.disable is False:
+                bar.set_postfix(acc=f"{np.nanmean(acc):.3f}")
+    finally:
+        bar.close()
+
+    meta = dict(packing.meta)
+    history = list(meta.get("history", []))
+    out = Packing(pos, radii, box, species=species, meta=meta)
+    gap_out, pair_out = out.closest_pair()
+    if gap_out < min(gap_in, 0.0):
+        raise OverlapError(
+            f"shaking produced an overlap: spheres {pair_out[0]} and {pair_out[1]} with relative gap "
+            f"{gap_out:.3e}; please report this"
+        )
+    if monitor_every is None or (monitor_every and global_shakes % monitor_every != 0):
+        record(global_shakes, out)
+    run = {
+        "generator": "polypack.shake",
+        "method": method,
+        "seed": seed_record(ss),
+        "global_shakes": global_shakes,
+        "shake_radius": [float(x) for x in rsh0],
+        "final_shake_radius": [float(x) for x in rsh],
+        "max_trials": [int(x) for x in trials],
+        "order": order,
+        "adaptive": bool(adaptive),
+        "adapt_shakes": adapt_shakes if adaptive else 0,
+        "target_acceptance": target_acceptance if (adaptive and method == "metropolis") else None,
+        "skin": s,
+        "trials": int(total_trials),
+        "trial_moves_per_second": total_trials / kernel_time if kernel_time > 0 else None,
+        "rebuilds": rebuilds,
+        "wall_time": None,
+        "min_gap": float(gap_out),
+        "input_min_gap": float(gap_in),
+        "monitor": monitor if monitor_every != 0 else None,
+        **hist,
+    }
+    run["wall_time"] = time.perf_counter() - wall0
+    summary = {k: v for k, v in run.items() if k not in hist and k != "monitor"}
+    if run["monitor"] is not None:
+        summary["contact_value_final"] = {k: v[-1] for k, v in monitor["contact_value"].items()}
+    history.append(summary)
+    meta["shake"] = run
+    meta["history"] = history
+    meta["min_gap"] = float(gap_out)
+    out.meta = meta
+    return out
+
+
+def scrm(
+    sizes,
+    volume_fraction=0.6,
+    seed=None,
+    *,
+    growth_steps=10,
+    start_fraction=None,
+    schedule=None,
+    stage_shakes=1,
+    global_shakes=60,
+    growth_rate=None,
+    progress=None,
+    **shake_options,
+) -> Packing:
+    """Shaking collective rearrangement model (SCRM, §3.2 of 000_2cedc098acbd866b.txt).
+
+    CRM growth (:func:`polypack.pack`, §3.1) interleaved with shaking: the pack is
+    grown to each volume fraction of a schedule in turn and shaken
+    ``stage_shakes`` times after each growth stage; at the target fraction it is
+    shaken ``global_shakes`` more times.
+
+    Parameters
+    ----------
+    sizes : SizeSet, array_like of radii or Packing
+        As for :func:`polypack.pack`.
+    volume_fraction : float
+        Target ``c``.
+    seed : int or numpy.random.SeedSequence, optional
+        Split into independent child seeds for every growth and shaking stage
+        (recorded in ``meta``).
+    growth_steps : int
+        Number of growth stages (default 10) when no ``schedule`` is given; the
+        stage fractions are spaced evenly from ``start_fraction`` to the target.
+    start_fraction : float, optional
+        First stage fraction (default ``0.8 * volume_fraction``).
+    schedule : sequence of float, optional
+        Explicit increasing stage fractions; the last must equal the target.
+    stage_shakes : int
+        Global shakes after each growth stage (default 1).
+    global_shakes : int
+        ``M``, global shakes at the target (default 60).
+    growth_rate : float, optional
+        Passed to :func:`polypack.pack`.
+    progress : bool, optional
+        Progress bar over stages.
+    **shake_options
+        Passed to :func:`shake` (``method``, ``shake_radius``, ``max_trials``,
+        ``order``, ``adaptive``, ``skin``, ``monitor_every``, ...).
+
+    Returns
+    -------
+    Packing
+        ``meta["scrm"]`` records the schedule (stage fractions, shakes per stage,
+        acceptance per stage, times) and the seeds; ``meta["shake"]`` is the record
+        of the final ``M`` global shakes; ``meta["history"]`` lists every stage.
+    """
+    from . import pack
+
+    if isinstance(volume_fraction, str) or not isinstance(volume_fraction, (int, float, np.floating)):
+        raise InvalidInputError(f"volume_fraction={volume_fraction!r}: scrm needs a number in (0, 1)")
+    c = float(volume_fraction)
+    if not (0 < c < 1):
+        raise InvalidInputError(f"volume_fraction={c!r}: must be in (0, 1)")
+    stage_shakes = _check_int("stage_shakes", stage_shakes, 0)
+    global_shakes = _check_int("global_shakes", global_shakes, 0)
+    if schedule is None:
+        growth_steps = _check_int("growth_steps", growth_steps, 1)
+        c0 = 0.8 * c if start_fraction is None else float(start_fraction)
+        if not (0 < c0 <= c):
+            raise InvalidInputError(f"start_fraction={start_fraction!r}: must be in (0, volume_fraction]")
+        fractions = [c] if growth_steps == 1 else list(np.linspace(c0, c, growth_steps))
+    else:
+        fractions = [float(x) for x in schedule]
+        if not fractions or any(not (0 < x < 1) for x in fractions):
+            raise InvalidInputError(f"schedule={schedule!r}: needs fractions in (0, 1)")
+        if any(b <= a for a, b in zip(fractions, fractions[1:])):
+            raise InvalidInputError(f"schedule={schedule!r}: fractions must increase")
+        if abs(fractions[-1] - c) > 1e-12:
+            raise InvalidInputError(f"schedule ends at {fractions[-1]!r}; it must end at volume_fraction={c!r}")
+    for key in ("global_shakes", "seed", "progress"):
+        if key in shake_options:
+            raise InvalidInputError(f"{key} is an scrm argument; do not pass it among the shake options")
+    ss = as_seed_sequence(seed)
+    children = ss.spawn(2 * len(fractions) + 1)
+    wall0 = time.perf_counter()
+    stages = []
+    pk = sizes
+    bar = progress_bar(total=len(fractions) + 1, desc="scrm", progress=progress, unit="stage")
+    try:
+        for s_i, frac in enumerate(fractions):
+            t0 = time.perf_counter()
+            pk = pack(pk, volume_fraction=frac, seed=children[2 * s_i], growth_rate=growth_rate, progress=False)
+            t1 = time.perf_counter()
+            reached = pk.volume_fraction
+            status = pk.meta.get("status")
+            rec = {"stage": s_i, "target": frac, "reached": reached, "pack_status": status,
+                   "pack_time": t1 - t0, "shakes": 0}
+            if stage_shakes:
+                pk = shake(pk, global_shakes=stage_shakes, seed=children[2 * s_i + 1], progress=False,
+                           **{**shake_options, "monitor_every": 0})
+                sh = pk.meta["shake"]
+                rec.update(shakes=stage_shakes, shake_time=sh["wall_time"],
+                           acceptance_rate=sh["acceptance_rate"][-1])
+            stages.append(rec)
+            bar.update(1)
+            if status == "jammed" and reached < frac - 1e-9:
+                raise InvalidInputError(
+                    f"growth jammed at volume fraction {reached:.4f} below the stage target {frac:.4f}; "
+                    "lower volume_fraction or use a gentler schedule"
+                )
+        pk = shake(pk, global_shakes=global_shakes, seed=children[-1], progress=False, **shake_options)
+        bar.update(1)
+    finally:
+        bar.close()
+    meta = dict(pk.meta)
+    meta["scrm"] = {
+        "generator": "polypack.scrm",
+        "volume_fraction": c,
+        "schedule": fractions,
+        "stage_shakes": stage_shakes,
+        "global_shakes": global_shakes,
+        "growth_rate": growth_rate,
+        "stages": stages,
+        "seed": seed_record(ss),
+        "shake_options": {k: (v if isinstance(v, (int, float, str, bool, type(None))) else repr(v))
+                          for k, v in shake_options.items()},
+        "wall_time": time.perf_counter() - wall0,
+    }
+    pk.meta = meta
+    return pk

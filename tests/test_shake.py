@@ -1,0 +1,272 @@
+"""Monte-Carlo shaking (§3.2 of 000_2cedc098acbd866b.txt): invariants, exactness,
+reproducibility, adaptation, monitor, errors, CLI.  Physics validation (Carnahan–Starling
+contact values, the seed's findings) is in test_shake_physics.py."""
+
+import math
+
+import numpy as np
+import pytest
+
+import polypack as pp
+from polypack.errors import InvalidInputError, OverlapError
+from polypack.generate.shake import shake
+from polypack.neighbors import pairs_within
+
+METHODS = ["paper", "collision", "metropolis"]
+
+
+def simple_cubic(phi, n1=6, radius=1.0):
+    """Simple cubic lattice of n1^3 spheres at volume fraction phi (phi < pi/6)."""
+    spacing = (4.0 / 3.0 * math.pi * radius**3 / phi) ** (1.0 / 3.0)
+    g = (np.arange(n1) + 0.5) * spacing
+    pos = np.array(np.meshgrid(g, g, g, indexing="ij")).reshape(3, -1).T
+    return pp.Packing(pos, np.full(len(pos), radius), spacing * n1)
+
+
+def fcc(phi, n1=4, radius=1.0):
+    """FCC lattice of 4 n1^3 spheres at volume fraction phi (phi < 0.7405)."""
+    a = (16.0 / 3.0 * math.pi * radius**3 / phi) ** (1.0 / 3.0)
+    base = np.array([[0, 0, 0], [0.5, 0.5, 0], [0.5, 0, 0.5], [0, 0.5, 0.5]]) + 0.25
+    cells = np.array(np.meshgrid(*[np.arange(n1)] * 3, indexing="ij")).reshape(3, -1).T
+    pos = (cells[:, None, :] + base[None, :, :]).reshape(-1, 3) * a
+    return pp.Packing(pos, np.full(len(pos), radius), a * n1)
+
+
+def bidisperse_1_10(seed=0):
+    """8 large spheres (radius 2) on a lattice plus ~1500 small ones (radius 0.2): size ratio 1:10."""
+    rng = np.random.default_rng(seed)
+    L = 10.0
+    g = np.array([2.5, 7.5])
+    big = np.array(np.meshgrid(g, g, g, indexing="ij")).reshape(3, -1).T
+    pos, rad = [*big], [2.0] * 8
+    small = []
+    while len(small) < 1500:
+        cand = rng.random((4000, 3)) * L
+        d = cand[:, None, :] - big[None, :, :]
+        d -= L * np.round(d / L)
+        ok = np.all(np.linalg.norm(d, axis=2) >= 2.2 + 1e-9, axis=1)
+        for c in cand[ok]:
+            if small:
+                e = np.asarray(small) - c
+                e -= L * np.round(e / L)
+                if np.min(np.einsum("ij,ij->i", e, e)) < 0.4**2 + 1e-9:
+                    continue
+            small.append(c)
+            if len(small) == 1500:
+                break
+    pos = np.vstack([np.asarray(pos), np.asarray(small)])
+    rad = np.concatenate([rad, np.full(len(small), 0.2)])
+    species = np.concatenate([np.zeros(8, int), np.ones(len(small), int)])
+    return pp.Packing(pos, rad, L, species=species)
+
+
+@pytest.fixture(scope="module")
+def packs():
+    return {"sc": simple_cubic(0.5), "fcc": fcc(0.6), "bi": bidisperse_1_10()}
+
+
+def brute_min_gap(pk):
+    """Oracle: minimum relative gap over all pairs by O(N^2) minimum image."""
+    i, j, d = pairs_within(pk.positions, pk.radii, pk.box, a=1.2, b=0.0, method="brute")
+    return float(np.min(d / (pk.radii[i] + pk.radii[j]) - 1.0))
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("which", ["sc", "fcc", "bi"])
+def test_invariants_and_no_overlap(packs, method, which):
+    pk = packs[which]
+    out = shake(pk, global_shakes=5, method=method, seed=3)
+    assert out.n == pk.n
+    assert np.array_equal(out.radii, pk.radii)
+    assert np.array_equal(out.species, pk.species)
+    assert np.array_equal(out.box, pk.box)
+    assert out.volume_fraction == pk.volume_fraction
+    assert brute_min_gap(out) >= 0.0
+    assert out.min_gap() >= 0.0
+    moved = np.linalg.norm(pp.neighbors.minimum_image(out.positions - pk.positions, pk.box), axis=1)
+    assert np.count_nonzero(moved) > 0.5 * pk.n
+    # no sphere moved farther than M windows
+    step = np.asarray(out.meta["shake"]["shake_radius"])[pk.species] * pk.radii
+    assert np.all(moved <= 5 * step * (1 + 1e-12))
+    sh = out.meta["shake"]
+    assert sh["method"] == method and sh["global_shakes"] == 5
+    assert len(sh["acceptance_rate"]) == 5 and len(sh["acceptance_rate"][0]) == pk.n_species
+    acc = np.array(sh["acceptance_rate"], dtype=float)
+    assert np.all((acc >= 0) & (acc <= 1)) and np.all(acc.mean(axis=0) > 0)
+    assert sh["trials"] >= 5 * pk.n
+    assert out.meta["history"][-1]["generator"] == "polypack.shake"
+    assert pk.meta == {}  # input untouched
+
+
+def test_lattice_acceptance_matches_geometry():
+    """Simple cubic lattice with wide gaps: every window position is free, so acceptance is 1,
+    and the mean accepted displacement of a uniform point in a ball of radius R is 3R/4."""
+    pk = simple_cubic(0.2, n1=5)  # gap 2*(spacing/2 - 1) ~ 0.76 radius
+    out = shake(pk, global_shakes=4, shake_radius=0.05, method="metropolis", seed=1)
+    acc = np.array(out.meta["shake"]["acceptance_rate"], dtype=float)
+    assert np.all(acc == 1.0)
+    mdisp = np.mean(np.array(out.meta["shake"]["mean_displacement"], dtype=float))
+    assert mdisp == pytest.approx(0.75 * 0.05, rel=0.03)
+
+
+def test_touching_pair_acceptance_exact():
+    """Two spheres touching through the periodic boundary (minimum image), one sequential
+    sweep with a tiny window: sphere 0 is rejected iff it moves towards sphere 1 (prob 1/2);
+    sphere 1 then is rejected with prob 1/2 if 0 stayed, and with prob 1/4 if 0 opened a gap
+    |dx_0| (uniform-ball x-components): overall acceptance (1/2 + 5/8) / 2 = 9/16."""
+    pos = np.array([[0.5, 5.0, 5.0], [18.5, 5.0, 5.0]])
+    pk = pp.Packing(pos, [1.0, 1.0], 20.0)
+    acc = [shake(pk, global_shakes=1, shake_radius=1e-3, method="metropolis", order="sequential", seed=s,
+                 monitor_every=0).meta["shake"]["acceptance_rate"][0][0] for s in range(400)]
+    # standard error 0.5 / sqrt(800) = 0.018
+    assert np.mean(acc) == pytest.approx(9.0 / 16.0, abs=0.055)
+
+
+def test_free_flight_analytic():
+    """Eq. (9): free flight of sphere 0 towards sphere 1 along a direction at angle theta,
+    including the periodic image across the box boundary."""
+    from polypack._kernels import shake as kern
+
+    box = np.full(3, 10.0)
+    radii = np.array([1.0, 1.0])
+    pos = np.array([[0.5, 5.0, 5.0], [7.5, 5.0, 5.0]])  # 3.0 apart through x = 0 = L
+    start, idx = kern.build_list(pos, radii, box, 1.0, np.array([2, 2, 2], np.int64))
+    for theta in (0.0, 0.3, 0.7):
+        u = np.array([-math.cos(theta), math.sin(theta), 0.0])
+        t = kern._free_flight(0, u[0], u[1], u[2], pos, radii, box, start, idx)
+        # |w + u t| = 2 with w = (3, 0, 0) in the direction of -x: t = 3 cos(th) - sqrt(4 - 9 sin^2(th))
+        disc = 4.0 - 9.0 * math.sin(theta) ** 2
+        expect = 3.0 * math.cos(theta) - math.sqrt(disc) if disc >= 0 else math.inf
+        assert t == pytest.approx(expect, rel=1e-12)
+    t = kern._free_flight(0, 1.0, 0.0, 0.0, pos, radii, box, start, idx)
+    assert t == math.inf  # moving away (no other neighbour)
+
+
+def test_collision_amplitude_bounded_by_free_flight():
+    """Collision-limited moves never pass the first contact: a sphere between two close
+    neighbours on a line can only move by less than its free gap along the line."""
+    pk = simple_cubic(0.5, n1=4)
+    out = shake(pk, global_shakes=20, method="collision", shake_radius=0.3, seed=2)
+    assert out.min_gap() >= 0.0
+    md = np.array(out.meta["shake"]["mean_displacement"], dtype=float)
+    assert np.all(md < 0.3)  # below the window
+
+
+def test_reproducible_for_a_seed(packs):
+    pk = packs["bi"]
+    for method in METHODS:
+        a = shake(pk, global_shakes=3, method=method, seed=11)
+        b = shake(pk, global_shakes=3, method=method, seed=11, monitor_every=1)
+        c = shake(pk, global_shakes=3, method=method, seed=12)
+        assert np.array_equal(a.positions, b.positions)
+        assert not np.array_equal(a.positions, c.positions)
+        for key in ("acceptance_rate", "mean_displacement", "trials", "seed"):
+            assert a.meta["shake"][key] == b.meta["shake"][key]
+    ss = np.random.SeedSequence(5)
+    assert np.array_equal(shake(pk, 2, seed=ss).positions, shake(pk, 2, seed=np.random.SeedSequence(5)).positions)
+
+
+def test_per_species_radius_and_trials(packs):
+    pk = packs["bi"]
+    out = shake(pk, global_shakes=3, shake_radius=[0.01, 0.1], max_trials=[5, 50], seed=1)
+    sh = out.meta["shake"]
+    assert sh["shake_radius"] == [0.01, 0.1] and sh["max_trials"] == [5, 50]
+    md = np.array(sh["mean_displacement"], dtype=float)
+    assert np.all(md[:, 0] <= 0.01) and np.all(md[:, 1] <= 0.1)
+    assert np.mean(md[:, 1]) > 3 * np.mean(md[:, 0])
+
+
+def test_metropolis_adaptation_then_fixed():
+    pk = simple_cubic(0.4, n1=6)
+    out = shake(pk, global_shakes=40, method="metropolis", adaptive=True, adapt_shakes=25, target_acceptance=0.4,
+                seed=4, shake_radius=0.01)
+    sh = out.meta["shake"]
+    hist = np.array(sh["shake_radius_history"])[:, 0]
+    assert np.all(hist[25:] == hist[24])  # fixed after the equilibration phase
+    assert hist[24] > 0.05  # grew from 0.01
+    acc = np.array(sh["acceptance_rate"], dtype=float)[25:, 0]
+    assert abs(acc.mean() - 0.4) < 0.08
+
+
+@pytest.mark.parametrize("method", ["paper", "collision"])
+def test_seed_adaptation_tracks_free_flight(method):
+    """The seed's rule (grow when the free flight exceeds the window, shrink otherwise)
+    drives R_sh to the median free flight: in the end about half of the visits grow it."""
+    pk = fcc(0.55, n1=3)
+    out = shake(pk, global_shakes=30, method=method, adaptive=True, shake_radius=0.005, seed=3)
+    sh = out.meta["shake"]
+    final = sh["final_shake_radius"][0]
+    assert 0.005 < final <= sh["skin"]
+    assert out.min_gap() >= 0.0
+
+
+def test_monitor_and_callback():
+    from polypack.analysis import contact_value
+
+    pk = fcc(0.5, n1=3)
+    seen = []
+    out = shake(pk, global_shakes=6, method="paper", seed=1, monitor_every=2,
+                callback=lambda m, p: seen.append((m, p.min_gap() >= 0)))
+    mon = out.meta["shake"]["monitor"]
+    assert mon["global_shake"] == [0, 2, 4, 6]
+    vals = mon["contact_value"]["0-0"]
+    assert len(vals) == 4
+    assert vals[-1] == pytest.approx(contact_value(out, width=0.05)[(0, 0)], rel=1e-12)
+    assert seen == [(m, True) for m in range(1, 7)]
+    none = shake(pk, global_shakes=2, seed=1, monitor_every=0)
+    assert none.meta["shake"]["monitor"] is None
+
+
+def test_zero_global_shakes_is_identity(packs):
+    pk = packs["fcc"]
+    out = shake(pk, global_shakes=0, seed=1)
+    assert np.array_equal(out.positions, pk.positions)
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        (dict(shake_radius=-0.1), "shake_radius"),
+        (dict(shake_radius=0.0), "shake_radius"),
+        (dict(shake_radius=[0.1, 0.2, 0.3]), "shake_radius"),
+        (dict(max_trials=0), "max_trials"),
+        (dict(method="vibrate"), "method"),
+        (dict(method="metropolis", max_trials=5), "max_trials"),
+        (dict(global_shakes=-1), "global_shakes"),
+        (dict(order="backwards"), "order"),
+        (dict(shake_radius=50.0), "shake_radius"),
+        (dict(target_acceptance=1.5), "target_acceptance"),
+    ],
+)
+def test_bad_input(packs, kwargs, match):
+    with pytest.raises(InvalidInputError, match=match):
+        shake(packs["sc"], **{"global_shakes": 1, **kwargs})
+
+
+def test_overlapping_input_rejected():
+    pos = np.array([[1.0, 1.0, 1.0], [2.5, 1.0, 1.0], [5.0, 5.0, 5.0]])
+    pk = pp.Packing(pos, [1.0, 1.0, 1.0], 10.0)
+    with pytest.raises(OverlapError, match="input pack overlaps"):
+        shake(pk, global_shakes=1)
+    with pytest.raises(InvalidInputError, match="Packing"):
+        shake(pos, global_shakes=1)
+
+
+def test_cli_shake(tmp_path, capsys):
+    from polypack.cli import main
+
+    pk = fcc(0.55, n1=3)
+    src, dst = tmp_path / "in.gsd", tmp_path / "out.gsd"
+    pp.io.write(src, pk)
+    ret = main(["shake", str(src), str(dst), "-M", "3", "--seed", "4", "--method", "collision"])
+    assert not ret
+    out = pp.io.read(dst)
+    assert out.n == pk.n and np.array_equal(out.radii, pk.radii) and out.min_gap() >= 0
+    assert out.meta["shake"]["global_shakes"] == 3 and out.meta["shake"]["method"] == "collision"
+    assert "3 global shakes" in capsys.readouterr().out
+    # bad input: one-line error, exit code 1
+    with pytest.raises(SystemExit) as exc:
+        main(["shake", str(src), str(dst), "--shake-radius", "-1"])
+    assert exc.value.code == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "shake_radius=-1.0" in err
