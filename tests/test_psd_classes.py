@@ -197,3 +197,30 @@ def test_monodisperse_set():
     s = pp.psd.Monodisperse(2.0).sample(10, seed=3)
     assert np.all(s.radii == 1.0) and s.report["descriptors"]["Cu"] == 1.0
     assert s.report["descriptors"]["skewness"] == 0.0 and s.report["descriptors"]["polydispersity"] == 0.0
+
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+
+@settings(max_examples=40, deadline=None)
+@given(a=st.floats(0.3, 6), b=st.floats(0.3, 6), span=st.floats(0.05, 0.95), nc=st.integers(1, 15),
+       spacing=st.sampled_from(["geometric", "regular", "isochoric"]), npc=st.integers(1, 30),
+       nmin=st.integers(1, 5000), dim=st.sampled_from([2, 3]))
+def test_criteria_hold_or_infeasible_property(a, b, span, nc, spacing, npc, nmin, dim):
+    m = pp.psd.CumulativeBeta(a=a, b=b, span=span, dim=dim)
+    try:
+        s = pp.psd.discretize(m, n_classes=nc, spacing=spacing, min_per_class=npc, min_total=nmin,
+                              max_total=200_000, method="quantiles")
+    except InfeasibleError as e:
+        need = pp.psd.class_counts(m, nc, spacing, npc, nmin).total
+        assert need > 200_000 and f"N_p={need}" in str(e)
+        return
+    except InvalidInputError as e:  # isochoric classes can collapse for extreme shapes
+        assert "collapse" in str(e)
+        return
+    counts = np.asarray(s.report["classes"]["counts"])
+    fv = np.asarray(s.report["classes"]["volume_fractions"])
+    assert np.all(counts[fv > 0] >= npc)
+    assert nmin <= s.n <= 200_000
+    assert counts.sum() == s.n

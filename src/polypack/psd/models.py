@@ -191,6 +191,7 @@ class SizeDistribution:
             seg = (b - a) * ((q ** self._w) @ _GL_W)
             cum = np.concatenate([[0.0], np.cumsum(seg)])
             self._tab = (P, cum, cum[-1])
+            self._nodes = q  # quantiles at the quadrature nodes, reused by moment()
         return self._tab
 
     def _ppf_clipped(self, p):
@@ -314,8 +315,7 @@ class SizeDistribution:
         basis = _check_basis(basis)
         P, _, norm = self._table()
         a, b = P[:-1], P[1:]
-        x = a[:, None] + (b - a)[:, None] * _GL_X[None, :]
-        q = self._ppf_clipped(x)
+        q = self._nodes
         if basis == self.basis:
             return float(np.sum((b - a) * ((q ** float(k)) @ _GL_W)))
         return float(np.sum((b - a) * ((q ** (float(k) + self._w)) @ _GL_W)) / norm)
