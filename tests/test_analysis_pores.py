@@ -66,8 +66,16 @@ def test_doh_fits_recover_gaussian_and_document_printed_form():
     assert f["normalized"]["b"] == pytest.approx(0.6, rel=0.01)
     assert f["normalized"]["residual_rms"] < 0.005
     assert 0 < f["normalized"]["a_err"] < 0.01
-    # the printed form is 1 - erf = 2 x survival: it cannot fit a survival starting at 1
+    # the printed form is 1 - erf = 2 x survival: it cannot fit a Gaussian with b >> a
     assert f["seed"]["residual_rms"] > 5 * f["normalized"]["residual_rms"]
+    # a half-normal pore size (mode at 0, as in random packs) is the printed form with b = 0
+    h = np.sort(np.abs(rng.normal(0.0, 0.3, 400_000)) * 2.0)
+    p._frames = [{"void": h[h > 0], "n": h.size, "r0": 2.0}]
+    f = p.fit
+    assert f["seed"]["a"] == pytest.approx(0.3, rel=0.02)
+    assert abs(f["seed"]["b"]) < 0.01
+    assert f["seed"]["residual_rms"] < 0.005
+    assert f["normalized"]["residual_rms"] > 2 * f["seed"]["residual_rms"]
     x = np.linspace(-1, 3, 50)
     assert np.allclose(doh_seed(x, 0.3, 1.0), 2 * doh_normalized(x, 0.3, 1.0))
 
