@@ -7,7 +7,6 @@ import pytest
 
 import polypack as pp
 from polypack.errors import InfeasibleError, InvalidInputError
-from polypack.psd import uv_ppf
 
 
 def test_geometric_bounds_follow_eq11():
