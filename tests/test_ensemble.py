@@ -189,11 +189,29 @@ def test_changed_study_needs_force_and_more_realizations_extend(serial_run, tmp_
     assert not np.array_equal(positions(r, 0), positions(out, 0))
 
 
-def test_failing_realizations_are_reported_and_others_kept(tmp_path):
+def test_r_max_beyond_half_the_box_fails_before_anything_runs(tmp_path):
     bad = tiny(realizations=2)
-    bad["analysis"]["rdf"]["r_max"] = 50.0  # larger than half the box: every analysis fails
-    with pytest.raises(PolypackError, match="2 of 2 realization"):
-        pp.ensemble.run_study(bad, tmp_path)
+    bad["analysis"]["rdf"]["r_max"] = 50.0
+    with pytest.raises(InvalidInputError, match=r"^analysis.rdf.r_max = 50.0: exceeds half the box length"):
+        pp.ensemble.run_study(bad, tmp_path / "o")
+    assert not (tmp_path / "o").exists()
+
+
+def test_failing_realizations_are_reported_and_others_kept(tmp_path, monkeypatch):
+    from polypack.ensemble import runner
+
+    real = runner.run_realization
+
+    def fails_at_1(data, i, seed):
+        if i == 1:
+            raise pp.InfeasibleError("boom")
+        return real(data, i, seed)
+
+    monkeypatch.setattr(runner, "run_realization", fails_at_1)
+    with pytest.raises(PolypackError, match="1 of 3 realization.*realization 1: boom"):
+        pp.ensemble.run_study(tiny(), tmp_path)
+    assert (tmp_path / "realizations" / "r0002.json").is_file()
+    assert not (tmp_path / "realizations" / "r0001.json").exists()
 
 
 def test_cli_run_and_resume(tmp_path, capsys):

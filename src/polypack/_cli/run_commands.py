@@ -34,9 +34,10 @@ def register(app: typer.Typer) -> None:
 
         st = load_study(study)
         if check:
-            from ..ensemble.stages import check_available
+            from ..ensemble.stages import check_available, child_seed_records, preflight
 
             check_available(st.data)
+            preflight(st.data, child_seed_records(st.seed, 1)[0])
             typer.echo(f"# {study}: valid; fingerprint {st.fingerprint}")
             typer.echo(st.to_toml(), nl=False)
             return

@@ -33,7 +33,7 @@ import numpy as np
 from .._util import atomic_open, progress_bar
 from ..errors import InvalidInputError, PolypackError
 from ..study import Study, load_study
-from .stages import check_available, child_seed_records, realize
+from .stages import check_available, child_seed_records, preflight, realize
 
 __all__ = ["run_study", "EnsembleResult", "run_realization", "verify_realization", "aggregate"]
 
@@ -201,12 +201,13 @@ def run_study(
     check_available(study.data)
     if not (isinstance(workers, int) and workers >= 1):
         raise InvalidInputError(f"workers={workers!r}: must be an integer >= 1")
+    seeds = child_seed_records(study.seed, study.realizations)
+    preflight(study.data, seeds[0])
     out = Path(out)
     _check_out(out, study, force)
     (out / "realizations").mkdir(parents=True, exist_ok=True)
     study.write_resolved(out)
 
-    seeds = child_seed_records(study.seed, study.realizations)
     records = {}
     for i in range(study.realizations):
         rec = verify_realization(out, i, study.fingerprint)
@@ -434,7 +435,10 @@ def plot_curves(curves: dict, folder, fmt="png", title=""):
     for name, entry in curves.items():
         fig, ax = plt.subplots(figsize=(6, 4))
         x = np.array(entry["x"], dtype=float)
+        many = sum(c.startswith("partial") for c in entry["curves"]) > 6
         for c, d in entry["curves"].items():
+            if many and c.startswith("partial"):
+                continue  # too many species pairs for one plot: the total only
             if name.startswith("pores") and c not in ("survival",):
                 continue
             if name.startswith("kfunction") and c.startswith("partial"):

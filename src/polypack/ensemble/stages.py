@@ -19,7 +19,7 @@ import numpy as np
 from .._util import seed_from_record, seed_record
 from ..errors import InvalidInputError
 
-__all__ = ["make_sizes", "make_packing", "run_analyses", "realize", "stage_seeds", "check_available"]
+__all__ = ["make_sizes", "make_packing", "run_analyses", "realize", "stage_seeds", "check_available", "preflight"]
 
 # The packer synchronises (and rescales velocities) at chunk boundaries, and sizes its
 # chunks from the measured collision rate, so its trajectory depends on the machine load.
@@ -152,6 +152,29 @@ def check_available(study_data):
             getattr(pa, cls)
         except (ImportError, AttributeError):
             raise InvalidInputError(f"analysis.{name}: polypack.analysis.{cls} is not available here") from None
+
+
+def preflight(study_data, seed_rec):
+    """Cheap checks on realization 0's sizes before anything runs.
+
+    The box follows from the sizes and the target volume fraction, so an ``r_max``
+    beyond half the box (which every analysis would reject after the packing) is
+    reported at once with its key path.
+    """
+    s_sizes, _, _ = stage_seeds(seed_rec)
+    sizes = make_sizes(study_data["psd"], s_sizes)
+    vf = study_data["protocol"]["volume_fraction"]
+    if isinstance(vf, str):
+        return
+    r = np.asarray(sizes.radii, dtype=np.float64)
+    half = 0.5 * (4.0 / 3.0 * math.pi * float(np.sum(r**3)) / vf) ** (1.0 / 3.0)
+    for name in ("rdf", "kfunction"):
+        opts = study_data.get("analysis", {}).get(name)
+        if opts and opts["r_max"] > half:
+            raise InvalidInputError(
+                f"analysis.{name}.r_max = {opts['r_max']!r}: exceeds half the box length {half:.4g} of this study "
+                f"(N={r.size} at volume fraction {vf}); use r_max <= {half:.4g} or more particles"
+            )
 
 
 def make_packing(sizes, protocol: dict, seed):
