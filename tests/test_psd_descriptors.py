@@ -129,6 +129,8 @@ def test_accessible_domain_matches_class_counts_and_seed_statements():
     # the domain is not symmetric: shapes with a < b need more particles
     assert dom.n_total[1, 0] > dom.n_total[0, 1] and dom.n_total[2, 1] > dom.n_total[1, 2]
     assert np.array_equal(dom.mask, dom.n_total <= 10**5)
+    # Hazen grid (Fig. 8c): Cu of a = 3, b = 6 equals the model's
+    assert dom.cu[2, 1] == pytest.approx(pp.psd.hazen(pp.psd.CumulativeBeta(3.0, 6.0, span=0.97))["Cu"])
     assert json.dumps(dom.to_dict())
 
 

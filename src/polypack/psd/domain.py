@@ -8,6 +8,7 @@ import numpy as np
 
 from ..errors import InfeasibleError, InvalidInputError
 from .classes import class_counts
+from .descriptors import hazen
 from .models import CumulativeBeta
 
 __all__ = ["AccessibleDomain", "accessible_domain"]
@@ -19,6 +20,8 @@ class AccessibleDomain:
 
     ``n_total[j, i]`` (float; ``inf`` beyond 1e18) is ``N_p`` for ``a = a_values[i]``,
     ``b = b_values[j]``; a shape is accessible when ``N_p <= max_total`` (``mask``).
+    ``cu`` and ``cc`` hold the Hazen coefficients of each shape (Eqs. (19)-(20)), so the
+    accessible values of ``Cu`` (Fig. 8c) are ``cu[mask]``.
     """
 
     span: float
@@ -27,6 +30,8 @@ class AccessibleDomain:
     n_total: np.ndarray
     max_total: object
     parameters: dict
+    cu: np.ndarray = None
+    cc: np.ndarray = None
 
     @property
     def mask(self) -> np.ndarray:
@@ -39,7 +44,8 @@ class AccessibleDomain:
 
     def to_dict(self) -> dict:
         return {"span": self.span, "a_values": self.a_values.tolist(), "b_values": self.b_values.tolist(),
-                "n_total": [[None if not np.isfinite(v) else int(v) for v in row] for row in self.n_total], "max_total": np.atleast_1d(self.max_total).tolist(),
+                "n_total": [[None if not np.isfinite(v) else int(v) for v in row] for row in self.n_total],
+                "Cu": None if self.cu is None else self.cu.tolist(), "Cc": None if self.cc is None else self.cc.tolist(), "max_total": np.atleast_1d(self.max_total).tolist(),
                 "parameters": self.parameters}
 
     def plot(self, ax=None, **kw):
@@ -73,6 +79,8 @@ def accessible_domain(span, a_values=None, b_values=None, n_classes=10, spacing=
     if np.any(limits < 1):
         raise InvalidInputError(f"max_total={max_total!r}: must be positive")
     n = np.empty((b_values.size, a_values.size), float)
+    cu = np.empty_like(n)
+    cc = np.empty_like(n)
     for j, b in enumerate(b_values):
         for i, a in enumerate(a_values):
             m = CumulativeBeta(a=a, b=b, span=span, d_max=1.0, dim=dim)
@@ -80,7 +88,9 @@ def accessible_domain(span, a_values=None, b_values=None, n_classes=10, spacing=
                 n[j, i] = class_counts(m, n_classes, spacing, min_per_class, min_total, dim, count_basis).total
             except InfeasibleError:  # more than 1e18 particles
                 n[j, i] = np.inf
+            hz = hazen(m)
+            cu[j, i], cc[j, i] = hz["Cu"], hz["Cc"]
     params = {"n_classes": n_classes, "spacing": spacing, "min_per_class": min_per_class, "min_total": min_total,
               "dim": dim, "count_basis": count_basis}
     mt = int(limits[0]) if limits.size == 1 else limits.tolist()
-    return AccessibleDomain(float(span), a_values, b_values, n, mt, params)
+    return AccessibleDomain(float(span), a_values, b_values, n, mt, params, cu, cc)
