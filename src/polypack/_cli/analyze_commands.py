@@ -27,17 +27,20 @@ def analyze_packing(
 ):
     """Run the selected estimators on ``pk``; returns plain JSON-able data.
 
-    ``r_max`` and ``dr`` are in units of the number-mean diameter; ``r_max`` is
-    capped at half the smallest box length (the cap is reported).
+    ``r_max`` is in diameters of the largest species (so that every partial RDF
+    reaches beyond its first shells) and ``dr`` in number-mean diameters; ``r_max``
+    is capped at half the smallest box length (the cap is reported).
     """
     import numpy as np
 
     from .. import analysis
     from ..analysis._base import to_jsonable
+    from ..analysis._paircounts import species_radii
     from ..errors import InvalidInputError
 
     d_mean = float(np.mean(2 * pk.radii))
-    r_abs = r_max * d_mean
+    d_large = float(2 * np.nanmax(species_radii(pk)))
+    r_abs = r_max * d_large
     notes = []
     half = 0.5 * float(np.min(pk.box))
     if r_abs > half:
@@ -50,6 +53,7 @@ def analyze_packing(
         "volume_fraction": pk.volume_fraction,
         "species_counts": pk.species_counts.tolist(),
         "mean_diameter": d_mean,
+        "largest_species_diameter": d_large,
         "notes": notes,
     }
     figs = {}
@@ -116,7 +120,7 @@ def register(app: typer.Typer) -> None:
         windows: bool = typer.Option(False, "--windows", help="Window histogram p(n_h)."),
         contacts: bool = typer.Option(False, "--contacts", help="Coordination numbers, rattlers."),
         pores: bool = typer.Option(False, "--pores", help="Pore-size distribution and DOH fit."),
-        r_max: float = typer.Option(3.0, help="RDF/K range in mean diameters (capped at half the box)."),
+        r_max: float = typer.Option(3.0, help="RDF/K range in diameters of the largest species (capped at half the box)."),
         dr: float = typer.Option(0.01, help="Bin width in mean diameters."),
         window_radius: float = typer.Option(2.5, help="Window radius R_h in sphere radii."),
         tolerance: float = typer.Option(0.01, help="Contact gap tolerance eps."),
