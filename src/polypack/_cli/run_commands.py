@@ -46,9 +46,18 @@ def register(app: typer.Typer) -> None:
         from ..ensemble import dask_executor, run_study
 
         out_dir = out if out is not None else Path("out") / st.name
-        if scheduler or dask:
-            with dask_executor(address=scheduler, n_workers=workers) as ex:
-                res = run_study(st, out_dir, executor=ex, force=force, progress=progress)
-        else:
-            res = run_study(st, out_dir, workers=workers, force=force, progress=progress)
+        try:
+            if scheduler or dask:
+                with dask_executor(address=scheduler, n_workers=workers) as ex:
+                    res = run_study(st, out_dir, executor=ex, force=force, progress=progress)
+            else:
+                res = run_study(st, out_dir, workers=workers, force=force, progress=progress)
+        except KeyboardInterrupt:
+            done = len(list((out_dir / "realizations").glob("r*.json")))
+            typer.echo(
+                f"interrupted: {done} of {st.realizations} realization(s) are saved in {out_dir}; "
+                "rerun the same command to resume",
+                err=True,
+            )
+            raise SystemExit(130) from None
         typer.echo(res.summary())

@@ -55,6 +55,22 @@ def run_realization(study_data: dict, index: int, seed_rec: dict):
     return index, packing, record, time.perf_counter() - t0
 
 
+def _worker_init():
+    """Pool workers leave Ctrl-C to the main process, which stops them."""
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def _stop_pool(pool):
+    """Cancel queued realizations and end the pool's worker processes at once."""
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    for p in procs:
+        if p.is_alive():
+            p.terminate()
+    pool.shutdown(wait=False)
+
+
 def _paths(out: Path, index: int):
     base = out / "realizations" / f"r{index:04d}"
     return base.with_suffix(".gsd"), base.with_suffix(".json")
@@ -234,7 +250,7 @@ def run_study(
                 bar.update(1)
         elif todo:
             if executor is None:
-                own = executor = cf.ProcessPoolExecutor(max_workers=workers)
+                own = executor = cf.ProcessPoolExecutor(max_workers=workers, initializer=_worker_init)
             futs = {executor.submit(run_realization, study.data, i, seeds[i]): i for i in todo}
             try:
                 for fut in cf.as_completed(futs):
@@ -249,8 +265,12 @@ def run_study(
                     computed.append(i)
                     bar.update(1)
             except BaseException:
-                for f in futs:
-                    f.cancel()
+                if own is not None:
+                    _stop_pool(own)
+                    own = None
+                else:
+                    for f in futs:
+                        f.cancel()
                 raise
     finally:
         bar.close()

@@ -369,6 +369,8 @@ def realize(study_data: dict, index: int, seed_rec: dict):
     s_sizes, s_proto, s_ana = stage_seeds(seed_rec)
     sizes = make_sizes(study_data["psd"], s_sizes)
     packing = make_packing(sizes, study_data["protocol"], s_proto)
+    if packing.meta.get("status") == "interrupted" or (packing.meta.get("shake") or {}).get("interrupted"):
+        raise KeyboardInterrupt  # a generator stopped early on Ctrl-C: never record a partial pack
     analyses = run_analyses(packing, study_data.get("analysis", {}), s_ana)
     report = getattr(sizes, "report", {}) or {}
     psd_scalars = {k: _jsonable(v) for k, v in report.items() if _jsonable(v) is not None}
