@@ -249,3 +249,18 @@ def test_crm_with_global_shakes(tmp_path):
     study = tiny(realizations=1, global_shakes=2)
     res = pp.ensemble.run_study(study, tmp_path)
     assert res.records[0]["protocol"]["shake.global_shakes"] == 2
+
+
+def test_extra_formats_and_formats_added_on_resume(serial_run, tmp_path):
+    import shutil
+
+    out, _ = serial_run
+    shutil.copytree(out, tmp_path / "r", dirs_exist_ok=True)
+    r = tmp_path / "r"
+    study = tiny()
+    study["output"]["formats"] = ["xyz"]
+    res = pp.ensemble.run_study(study, r)  # output settings do not invalidate realizations
+    assert res.computed == []
+    for i in range(3):
+        pk = pp.io.read(r / "realizations" / f"r{i:04d}.xyz")
+        np.testing.assert_allclose(pk.positions, positions(out, i), rtol=0, atol=1e-9)
