@@ -153,7 +153,7 @@ def shake(
         Target acceptance of the Metropolis adaptation (default 0.4).
     skin : float, optional
         Relative Verlet skin ``s`` (pairs with ``d <= (1 + s)(r_i + r_j)`` are
-        listed); default ``max(0.2, 3 max R_sh)``, capped by the box.  Affects speed
+        listed); default ``max(0.3, 3 max R_sh)``, capped by the box.  Affects speed
         only.
     monitor_every : int, optional
         Record the contact values ``g_km(a_k + a_m)+`` (via
@@ -172,10 +172,12 @@ def shake(
         (initial) and ``final_shake_radius`` per species, ``max_trials``,
         ``order``, ``skin``, per global shake and species ``acceptance_rate``
         (accepted / trials), ``moved_fraction`` (visits with a move / visits),
-        ``mean_displacement`` (mean accepted ``|Δx| / a_i``), ``net_displacement``
-        (rms displacement since the start over ``a_i``), ``shake_radius_history``;
+        ``mean_displacement`` (mean accepted ``|Δx| / a_i``), ``shake_radius_history``;
+        ``net_displacement``: rows ``[m, per-species rms displacement since the start
+        over a_i]`` (after every shake when monitoring, else at the end);
         ``monitor`` (``global_shake`` and ``contact_value`` per pair ``"k-m"``),
-        ``trials``, ``trial_moves_per_second``, ``wall_time``, ``rebuilds``,
+        ``trials``, ``accepted``, ``acceptance`` (overall), ``trial_moves_per_second``,
+        ``wall_time``, ``rebuilds``,
         ``min_gap``.  ``meta["history"]`` gets a summary entry.
 
     Raises
@@ -248,7 +250,7 @@ def shake(
     s_cap = float(box.min()) / (4.0 * float(radii.max())) - 1.0
     rsh_top = float(rsh.max())
     if skin is None:
-        s = min(max(0.2, 3.0 * rsh_top), s_cap)
+        s = min(max(0.3, 3.0 * rsh_top), s_cap)
     else:
         s = float(skin)
         if not (np.isfinite(s) and s > 0):
@@ -288,38 +290,55 @@ def shake(
     hist = {"acceptance_rate": [], "moved_fraction": [], "mean_displacement": [], "net_displacement": [],
             "shake_radius_history": []}
     total_trials = 0.0
+    total_accepted = 0.0
     kernel_time = 0.0
     code, ocode = _METHOD_CODE[method], _ORDER_CODE[order]
     r2 = radii**2
-    cur = packing
 
     def nanlist(a):
         return [None if not math.isfinite(x) else float(x) for x in a]
 
     bar = progress_bar(total=global_shakes, desc=f"shake ({method})", progress=progress, unit="shake")
+    m = 0
     try:
-        for m in range(1, global_shakes + 1):
-            adapting = bool(adaptive) and m <= adapt_shakes
-            stats = np.zeros((1, ns, kern.N_STATS))
+        while m < global_shakes:
+            adapting = bool(adaptive) and m + 1 <= adapt_shakes
+            per_shake = adapting or callback is not None or bool(monitor_every)
+            if per_shake:
+                chunk = 1
+            elif not bar.disable:
+                chunk = min(global_shakes - m, max(1, 200_000 // packing.n))
+            else:
+                chunk = global_shakes - m
+            stats = np.zeros((chunk, ns, kern.N_STATS))
             t0 = time.perf_counter()
             start, idx, nreb = kern.shake_sweeps(
-                pos, since, radii, species, box, rsh, start, idx, s, ncell, code, ocode, trials, 1,
+                pos, since, radii, species, box, rsh, start, idx, s, ncell, code, ocode, trials, chunk,
                 adapting and method != "metropolis", adapt_factor, _RSH_MIN, s, rng, net, stats,
             )
             kernel_time += time.perf_counter() - t0
             rebuilds += int(nreb)
-            st = stats[0]
-            total_trials += float(st[:, kern.ST_TRIALS].sum())
+            for st in stats:
+                m += 1
+                total_trials += float(st[:, kern.ST_TRIALS].sum())
+                total_accepted += float(st[:, kern.ST_ACCEPTED].sum())
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    acc = st[:, kern.ST_ACCEPTED] / st[:, kern.ST_TRIALS]
+                    moved = st[:, kern.ST_MOVED] / st[:, kern.ST_VISITS]
+                    mdisp = st[:, kern.ST_DISP] / st[:, kern.ST_ACCEPTED]
+                hist["acceptance_rate"].append(nanlist(acc))
+                hist["moved_fraction"].append(nanlist(moved))
+                hist["mean_displacement"].append(nanlist(mdisp))
+                hist["shake_radius_history"].append([float(x) for x in rsh])
             with np.errstate(invalid="ignore", divide="ignore"):
-                acc = st[:, kern.ST_ACCEPTED] / st[:, kern.ST_TRIALS]
-                moved = st[:, kern.ST_MOVED] / st[:, kern.ST_VISITS]
-                mdisp = st[:, kern.ST_DISP] / st[:, kern.ST_ACCEPTED]
                 netd = np.sqrt(np.bincount(species, weights=(net * net).sum(axis=1) / r2, minlength=ns) / counts)
+            hist["net_displacement"].append([m, nanlist(netd)])
             if adapting and method == "metropolis":
                 for k in range(ns):
                     if st[k, kern.ST_TRIALS] > 0:
                         fac = min(1.4, max(0.7, acc[k] / target_acceptance))
                         rsh[k] = min(s_cap, max(_RSH_MIN, rsh[k] * fac))
+                hist["shake_radius_history"][-1] = [float(x) for x in rsh]
             if adapting and 2.0 * float(rsh.max()) > s and s < s_cap:
                 # the window grew: widen the Verlet skin so that rebuilds stay rare
                 s = min(s_cap, 3.0 * float(rsh.max()))
@@ -328,20 +347,14 @@ def shake(
                 start, idx = kern.build_list(pos, radii, box, s, ncell)
                 since[:] = 0.0
                 rebuilds += 1
-            hist["acceptance_rate"].append(nanlist(acc))
-            hist["moved_fraction"].append(nanlist(moved))
-            hist["mean_displacement"].append(nanlist(mdisp))
-            hist["net_displacement"].append(nanlist(netd))
-            hist["shake_radius_history"].append([float(x) for x in rsh])
-            need_pk = callback is not None or (monitor_every and m % monitor_every == 0)
-            if need_pk:
+            if per_shake:
                 cur = packing.replace(positions=pos)
                 if monitor_every and m % monitor_every == 0:
                     record(m, cur)
                 if callback is not None:
                     callback(m, cur)
-            bar.update(1)
-            if bar.disable is False:
+            bar.update(chunk)
+            if not bar.disable:
                 bar.set_postfix(acc=f"{np.nanmean(acc):.3f}")
     finally:
         bar.close()
@@ -371,6 +384,8 @@ def shake(
         "target_acceptance": target_acceptance if (adaptive and method == "metropolis") else None,
         "skin": s,
         "trials": int(total_trials),
+        "accepted": int(total_accepted),
+        "acceptance": total_accepted / total_trials if total_trials else None,
         "trial_moves_per_second": total_trials / kernel_time if kernel_time > 0 else None,
         "rebuilds": rebuilds,
         "wall_time": None,
