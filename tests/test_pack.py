@@ -186,10 +186,10 @@ def test_jamming_density_monodisperse_fast():
 @pytest.mark.slow
 def test_jamming_density_rises_as_growth_slows():
     phis = []
-    for gamma in (0.1, 0.02, 0.004):
+    for gamma in (0.05, 0.02, 0.004):
         vals = [pp.pack(np.ones(500), "jammed", seed=s, growth_rate=gamma).volume_fraction for s in (1, 2)]
         phis.append(np.mean(vals))
-    assert all(0.625 <= p <= 0.65 for p in phis), phis
+    assert all(0.63 <= p <= 0.65 for p in phis), phis
     assert phis[0] < phis[1] < phis[2], phis
     assert 0.63 <= phis[1] <= 0.65
 

@@ -73,6 +73,29 @@ def pair_time(dx, dy, dz, dvx, dvy, dvz, G, sig0):
 
 
 @njit(cache=True)
+def exit_time(d0, d1, d2, v0, v1, v2, g, r0):
+    """Smallest ``s >= 0`` with ``|d + v s| = r0 - g s`` (a sphere leaving its shell).
+
+    ``d`` is the displacement from the shell centre, ``r0`` the displacement still
+    allowed now; written as ``A s^2 + 2 B s + C = 0`` with ``A = v^2 - g^2``,
+    ``B = d.v + r0 g``, ``C = d^2 - r0^2`` and solved without cancellation.
+    """
+    A = v0 * v0 + v1 * v1 + v2 * v2 - g * g
+    B = d0 * v0 + d1 * v1 + d2 * v2 + r0 * g
+    C = d0 * d0 + d1 * d1 + d2 * d2 - r0 * r0
+    if C >= 0.0 or r0 <= 0.0:
+        return 0.0
+    D = B * B - A * C
+    if D < 0.0:
+        D = 0.0
+    if B > 0.0:
+        return -C / (B + math.sqrt(D))
+    if A > 0.0:
+        return (-B + math.sqrt(D)) / A
+    return 0.0
+
+
+@njit(cache=True)
 def _sift_up(heap, hpos, key, k):
     i = heap[k]
     ki = key[i]
@@ -129,8 +152,13 @@ def _choose_ncell(box, n, reach_small):
 
 
 @njit(cache=True)
-def build_lists(x, g, box, t, c):
-    """CSR neighbour lists: pairs with ``d_ij <= (g_i + g_j)(t + c)``, both directions."""
+def build_lists(x, g, box, t, c, slack):
+    """Neighbour lists of shell-overlap pairs ``d_ij <= (g_i + g_j)(t + c)``, both directions.
+
+    Stored as slabs: sphere ``i`` owns ``nbr[off[i] : off[i] + cap_i]`` of which the
+    first ``nn[i]`` are used; the capacity ``cap_i = slack * count_i + 8`` leaves
+    room for local rebuilds.
+    """
     n = x.shape[0]
     a = t + c
     gs = np.sort(g)
@@ -138,26 +166,27 @@ def build_lists(x, g, box, t, c):
     nc = _choose_ncell(box, n, reach_small)
     pi, pj, _ = pairs_within(x, g, box, a, 0.0, nc)
     m = pi.shape[0]
-    start = np.zeros(n + 1, np.int64)
+    cnt = np.zeros(n, np.int64)
     for k in range(m):
-        start[pi[k] + 1] += 1
-        start[pj[k] + 1] += 1
+        cnt[pi[k]] += 1
+        cnt[pj[k]] += 1
+    off = np.zeros(n + 1, np.int64)
     for i in range(n):
-        start[i + 1] += start[i]
-    fill = start[:n].copy()
-    nbr = np.empty(2 * m, np.int64)
+        off[i + 1] = off[i] + int(slack * cnt[i]) + 8
+    nbr = np.empty(off[n], np.int64)
+    nn = np.zeros(n, np.int64)
     for k in range(m):
         i = pi[k]
         j = pj[k]
-        nbr[fill[i]] = j
-        fill[i] += 1
-        nbr[fill[j]] = i
-        fill[j] += 1
-    return start, nbr
+        nbr[off[i] + nn[i]] = j
+        nn[i] += 1
+        nbr[off[j] + nn[j]] = i
+        nn[j] += 1
+    return off, nn, nbr
 
 
 @njit(cache=True)
-def _predict(i, t, x, v, tl, g, box, start, nbr, xb, tb, c, cnt, ev_t, ev_p, ev_c):
+def _predict(i, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c):
     """Sync sphere ``i`` to ``t`` and schedule its next event (collision or shell exit)."""
     dt = t - tl[i]
     xi0 = x[i, 0] + v[i, 0] * dt
@@ -171,17 +200,15 @@ def _predict(i, t, x, v, tl, g, box, start, nbr, xb, tb, c, cnt, ev_t, ev_p, ev_
     vi1 = v[i, 1]
     vi2 = v[i, 2]
     gi = g[i]
-    # shell exit, lower bound: remaining / (|v| + g)
-    d0 = xi0 - xb[i, 0]
-    d1 = xi1 - xb[i, 1]
-    d2 = xi2 - xb[i, 2]
-    rem = c * gi - gi * (t - tb) - math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-    speed = math.sqrt(vi0 * vi0 + vi1 * vi1 + vi2 * vi2) + gi
-    best = INF
-    if speed > 0.0:
-        best = max(rem, 0.0) / speed
+    # shell exit: the sphere stays inside ball(xb_i, rho_i) while
+    # |x_i - xb_i| + g_i t <= rho_i; exact first crossing of the quadratic
+    d0 = min_image(xi0 - xb[i, 0], box[0])
+    d1 = min_image(xi1 - xb[i, 1], box[1])
+    d2 = min_image(xi2 - xb[i, 2], box[2])
+    best = exit_time(d0, d1, d2, vi0, vi1, vi2, gi, rho[i] * (1.0 - 1e-12) - gi * t)
     partner = -1
-    for k in range(start[i], start[i + 1]):
+    base = off[i]
+    for k in range(base, base + nn[i]):
         j = nbr[k]
         dtj = t - tl[j]
         dx = min_image(x[j, 0] + v[j, 0] * dtj - xi0, box[0])
@@ -198,6 +225,156 @@ def _predict(i, t, x, v, tl, g, box, start, nbr, xb, tb, c, cnt, ev_t, ev_p, ev_
         ev_c[i] = cnt[partner]
     else:
         ev_c[i] = 0
+
+
+@njit(cache=True)
+def _axis_cell(y, L, m):
+    y -= L * math.floor(y / L)
+    ck = int(y / L * m)
+    if ck >= m:
+        ck = m - 1
+    if ck < 0:
+        ck = 0
+    return ck
+
+
+@njit(cache=True)
+def _cell_index(p0, p1, p2, box, nc, lv):
+    c0 = _axis_cell(p0, box[0], nc[lv, 0])
+    c1 = _axis_cell(p1, box[1], nc[lv, 1])
+    c2 = _axis_cell(p2, box[2], nc[lv, 2])
+    return (c0 * nc[lv, 1] + c1) * nc[lv, 2] + c2
+
+
+@njit(cache=True)
+def _grid_build(xb, level, box, gmax_lv, nlev, reach_t, n):
+    """One cell grid of shell centres per size level (multi-level grid, O(N) for any size ratio)."""
+    vol = box[0] * box[1] * box[2]
+    counts = np.zeros(nlev, np.int64)
+    for i in range(n):
+        counts[level[i]] += 1
+    nc = np.ones((nlev, 3), np.int64)
+    coff = np.zeros(nlev + 1, np.int64)
+    for lv in range(nlev):
+        if counts[lv] == 0:
+            coff[lv + 1] = coff[lv] + 1
+            continue
+        h = max(gmax_lv[lv] * reach_t, (vol / (2.0 * counts[lv])) ** (1.0 / 3.0))
+        for k in range(3):
+            nc[lv, k] = max(1, int(math.floor(box[k] / h)))
+        while nc[lv, 0] * nc[lv, 1] * nc[lv, 2] > 4 * counts[lv] + 27:
+            for k in range(3):
+                nc[lv, k] = max(1, nc[lv, k] // 2)
+        coff[lv + 1] = coff[lv] + nc[lv, 0] * nc[lv, 1] * nc[lv, 2]
+    head = np.full(coff[nlev], -1, np.int64)
+    nxt = np.full(n, -1, np.int64)
+    prv = np.full(n, -1, np.int64)
+    cell = np.empty(n, np.int64)
+    for i in range(n):
+        lv = level[i]
+        ci = coff[lv] + _cell_index(xb[i, 0], xb[i, 1], xb[i, 2], box, nc, lv)
+        cell[i] = ci
+        h0 = head[ci]
+        nxt[i] = h0
+        if h0 >= 0:
+            prv[h0] = i
+        head[ci] = i
+    return nc, coff, head, nxt, prv, cell
+
+
+@njit(cache=True)
+def _grid_move(i, ci_new, head, nxt, prv, cell):
+    ci = cell[i]
+    if ci == ci_new:
+        return
+    p = prv[i]
+    q = nxt[i]
+    if p >= 0:
+        nxt[p] = q
+    else:
+        head[ci] = q
+    if q >= 0:
+        prv[q] = p
+    h0 = head[ci_new]
+    nxt[i] = h0
+    prv[i] = -1
+    if h0 >= 0:
+        prv[h0] = i
+    head[ci_new] = i
+    cell[i] = ci_new
+
+
+@njit(cache=True)
+def _local_rebuild(i, t, c, x, g, box, xb, rho, off, nn, nbr, level, nlev, gmax_lv, nc, coff, head, nxt, prv,
+                   cell):
+    """New shell for sphere ``i`` at its current position; symmetric list update.
+
+    Returns False if a neighbour slab overflowed (the caller then rebuilds globally).
+    """
+    # drop i from its old neighbours' lists (swap-remove)
+    for k in range(off[i], off[i] + nn[i]):
+        j = nbr[k]
+        b = off[j]
+        e = b + nn[j]
+        for q in range(b, e):
+            if nbr[q] == i:
+                nbr[q] = nbr[e - 1]
+                nn[j] -= 1
+                break
+    nn[i] = 0
+    for k in range(3):
+        xb[i, k] = x[i, k]
+    rho[i] = g[i] * (t + c)
+    lv_i = level[i]
+    _grid_move(i, coff[lv_i] + _cell_index(xb[i, 0], xb[i, 1], xb[i, 2], box, nc, lv_i), head, nxt, prv, cell)
+    ok = True
+    cap_i = off[i + 1] - off[i]
+    rx = np.empty(3, np.int64)
+    cx = np.empty(3, np.int64)
+    for lv in range(nlev):
+        reach = rho[i] + gmax_lv[lv] * (t + c)
+        full = False
+        for k in range(3):
+            ncl = nc[lv, k]
+            r = int(math.ceil(reach / (box[k] / ncl)))
+            if 2 * r + 1 >= ncl:
+                rx[k] = -1  # whole axis
+            else:
+                rx[k] = r
+            y = xb[i, k] - box[k] * math.floor(xb[i, k] / box[k])
+            ck = int(y / box[k] * ncl)
+            if ck >= ncl:
+                ck = ncl - 1
+            cx[k] = ck
+        lox = 0 if rx[0] < 0 else -rx[0]
+        hix = nc[lv, 0] - 1 if rx[0] < 0 else rx[0]
+        loy = 0 if rx[1] < 0 else -rx[1]
+        hiy = nc[lv, 1] - 1 if rx[1] < 0 else rx[1]
+        loz = 0 if rx[2] < 0 else -rx[2]
+        hiz = nc[lv, 2] - 1 if rx[2] < 0 else rx[2]
+        for ox in range(lox, hix + 1):
+            a0 = ox if rx[0] < 0 else (cx[0] + ox) % nc[lv, 0]
+            for oy in range(loy, hiy + 1):
+                a1 = oy if rx[1] < 0 else (cx[1] + oy) % nc[lv, 1]
+                for oz in range(loz, hiz + 1):
+                    a2 = oz if rx[2] < 0 else (cx[2] + oz) % nc[lv, 2]
+                    j = head[coff[lv] + (a0 * nc[lv, 1] + a1) * nc[lv, 2] + a2]
+                    while j >= 0:
+                        if j != i:
+                            dx = min_image(xb[j, 0] - xb[i, 0], box[0])
+                            dy = min_image(xb[j, 1] - xb[i, 1], box[1])
+                            dz = min_image(xb[j, 2] - xb[i, 2], box[2])
+                            lim = rho[i] + rho[j]
+                            if dx * dx + dy * dy + dz * dz <= lim * lim:
+                                if nn[i] < cap_i and nn[j] < off[j + 1] - off[j]:
+                                    nbr[off[i] + nn[i]] = j
+                                    nn[i] += 1
+                                    nbr[off[j] + nn[j]] = i
+                                    nn[j] += 1
+                                else:
+                                    ok = False
+                        j = nxt[j]
+    return ok
 
 
 @njit(cache=True)
@@ -254,23 +431,43 @@ def _thermalise(v):
 
 
 @njit(cache=True)
-def shell_width(t, g, box, c_ref_total, alpha):
-    """``c`` such that ``delta_i = c g_i``; neighbour reach ``(g_i+g_j)(t+c)``.
+def shell_width(t, gmax, box, c_ref_total, alpha):
+    """``c`` such that a shell built at ``t`` has radius ``rho_i = g_i (t + c)``.
 
-    ``c = max(c_ref_total - t, alpha t)`` keeps the absolute reach constant while
-    the spheres are small, capped so that ``2 (r_max + delta_max) < L/2``.  Returns
-    a value <= 0 when the largest sphere is about to exceed a quarter of the box.
+    ``t + c = max(c_ref_total, (1 + alpha) t)``: the absolute reach stays constant
+    while the spheres are small, then the shell is ``alpha`` times the radius.
+    Capped so that ``rho_i + rho_j < L/2``.  A value <= 0 means the largest sphere
+    is about to exceed a quarter of the box.
     """
-    gmax = 0.0
-    for i in range(g.shape[0]):
-        if g[i] > gmax:
-            gmax = g[i]
     c = max(c_ref_total - t, alpha * t)
     lmin = min(box[0], min(box[1], box[2]))
     cap = 0.249 * lmin / gmax - t
     if c > cap:
         c = cap
     return c
+
+
+@njit(cache=True)
+def _levels(g):
+    """Size levels for the multi-level grid: level l holds g in (gmax/2^(l+1), gmax/2^l]."""
+    n = g.shape[0]
+    gmax = g.max()
+    level = np.empty(n, np.int64)
+    nlev = 1
+    for i in range(n):
+        lv = int(math.floor(math.log2(gmax / g[i]))) if g[i] > 0 else 7
+        if lv > 7:
+            lv = 7
+        if lv < 0:
+            lv = 0
+        level[i] = lv
+        if lv + 1 > nlev:
+            nlev = lv + 1
+    gmax_lv = np.zeros(nlev)
+    for i in range(n):
+        if g[i] > gmax_lv[level[i]]:
+            gmax_lv[level[i]] = g[i]
+    return level, nlev, gmax_lv
 
 
 @njit(cache=True)
@@ -287,18 +484,16 @@ def run_chunk(x, v, g, box, state, params, hist):
     box : (3,) float64
     state : (8,) float64, in/out
         ``[t, collisions, events, rebuilds, virial_sum, ke_time_integral,
-        window_collisions, status]`` (the first six accumulate across chunks).
+        local_rebuilds, status]`` (counts accumulate across chunks).
     params : (8,) float64
         ``[t_stop, max_collisions_this_chunk, max_pressure, pressure_window,
-        c_ref_total, alpha, max_events_this_chunk, unused]``.
+        c_ref_total, alpha, max_events_this_chunk, sync_every]``.
     hist : (H, 3) float64
-        Output rows ``(t, reduced pressure, window length)``; ``state[6]`` (the
-        window position) and the number of rows written are carried in
-        ``hist[0, :]``...  Use :func:`run_chunk` via the Python driver.
+        Output rows ``(t, reduced pressure, window collisions)``, one per window.
 
     Returns
     -------
-    (status, n_hist) : status code and number of pressure windows written to ``hist``.
+    (status, n_hist) : status code and number of rows written to ``hist``.
 
     Notes
     -----
@@ -309,9 +504,14 @@ def run_chunk(x, v, g, box, state, params, hist):
     given to ``j`` along ``n`` and taken from ``i``: momentum is conserved, the
     pair separates faster than the contact distance grows, and the kinetic energy
     rises by ``J G``.  The energy is reset to ``3N/2`` (thermal speed 1) with the
-    net momentum removed at every full synchronisation (start of a chunk and each
-    neighbour-list rebuild).  Reduced pressure over a window of collisions:
-    ``Z = PV/(N kT) = 1 + sum(J sigma) / (2 integral(KE dt))``.
+    net momentum removed at every full synchronisation (chunk start, every
+    ``sync_every`` collisions, global rebuilds).  Reduced pressure over a window
+    of collisions: ``Z = PV/(N kT) = 1 + sum(J sigma) / (2 integral(KE dt))``.
+
+    Each sphere owns a shell ``ball(xb_i, rho_i)`` that contains it until its
+    shell-exit event; spheres whose shells do not overlap cannot collide, so the
+    lists of shell-overlap pairs are complete.  A shell exit rebuilds only that
+    sphere's shell and list (multi-level cell grid of shell centres).
     """
     n = x.shape[0]
     t = state[0]
@@ -322,6 +522,9 @@ def run_chunk(x, v, g, box, state, params, hist):
     c_ref_total = params[4]
     alpha = params[5]
     max_events = int(params[6])
+    sync_every = int(params[7])
+    if sync_every <= 0:
+        sync_every = 4 * n
 
     tl = np.full(n, t)
     cnt = np.zeros(n, np.int64)
@@ -331,6 +534,9 @@ def run_chunk(x, v, g, box, state, params, hist):
     heap = np.empty(n, np.int64)
     hpos = np.empty(n, np.int64)
     xb = np.empty((n, 3))
+    rho = np.empty(n)
+    level, nlev, gmax_lv = _levels(g)
+    gmax = g.max()
 
     n_hist = 0
     h_cap = hist.shape[0]
@@ -343,40 +549,47 @@ def run_chunk(x, v, g, box, state, params, hist):
     t_last = t
     ke = 0.0
     need_rebuild = True
-    start = np.zeros(n + 1, np.int64)
+    need_sync = False
+    since_sync = 0
+    off = np.zeros(n + 1, np.int64)
+    nn = np.zeros(n, np.int64)
     nbr = np.zeros(0, np.int64)
-    tb = t
     c = 0.0
+    slack = 1.6
+    nc, coff, head, nxt, prv, cell = _grid_build(x, level, box, gmax_lv, nlev, 1.0, n)
 
     while True:
-        if need_rebuild:
+        if need_rebuild or need_sync:
             _sync_all(x, v, tl, t)
-            # energy integral up to now with the pre-rescale energy
             ke = kinetic_energy(v)
             w_ke += ke * (t - t_last)
             t_last = t
-            _wrap(x, box)
             _thermalise(v)
             ke = kinetic_energy(v)
-            c = shell_width(t, g, box, c_ref_total, alpha)
-            if c <= 1e-9 * max(t, 1e-300):
-                status = BOX_LIMIT
-                break
-            tb = t
-            for i in range(n):
-                for k in range(3):
-                    xb[i, k] = x[i, k]
-            start, nbr = build_lists(x, g, box, t, c)
+            since_sync = 0
+            if need_rebuild:
+                _wrap(x, box)
+                c = shell_width(t, gmax, box, c_ref_total, alpha)
+                if c <= 1e-9 * max(t, 1e-300):
+                    status = BOX_LIMIT
+                    break
+                for i in range(n):
+                    for k in range(3):
+                        xb[i, k] = x[i, k]
+                    rho[i] = g[i] * (t + c)
+                off, nn, nbr = build_lists(x, g, box, t, c, slack)
+                nc, coff, head, nxt, prv, cell = _grid_build(xb, level, box, gmax_lv, nlev, t + c, n)
+                state[3] += 1
             for i in range(n):
                 cnt[i] = 0
             for i in range(n):
-                _predict(i, t, x, v, tl, g, box, start, nbr, xb, tb, c, cnt, ev_t, ev_p, ev_c)
+                _predict(i, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
                 heap[i] = i
                 hpos[i] = i
             for k in range(n // 2 - 1, -1, -1):
                 _sift_down(heap, hpos, ev_t, k, n)
-            state[3] += 1
             need_rebuild = False
+            need_sync = False
 
         if coll >= max_coll:
             status = CHUNK_DONE
@@ -397,21 +610,24 @@ def run_chunk(x, v, g, box, state, params, hist):
         t = te
         j = ev_p[i]
         if j < 0:
-            # shell exit (lower bound): rebuild only if the shell is really used up
-            dt = t - tl[i]
-            d2 = 0.0
-            for k in range(3):
-                dk = x[i, k] + v[i, k] * dt - xb[i, k]
-                d2 += dk * dk
-            rem = c * g[i] - g[i] * (t - tb) - math.sqrt(d2)
-            if rem <= 0.02 * c * g[i]:
+            # shell exit: new shell and neighbour list for sphere i only
+            _predict(i, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)  # sync i
+            c = shell_width(t, gmax, box, c_ref_total, alpha)
+            if c <= 1e-9 * max(t, 1e-300):
+                status = BOX_LIMIT
+                break
+            ok = _local_rebuild(i, t, c, x, g, box, xb, rho, off, nn, nbr, level, nlev, gmax_lv, nc, coff,
+                                head, nxt, prv, cell)
+            state[6] += 1
+            if not ok:
+                slack *= 1.5
                 need_rebuild = True
-            else:
-                _predict(i, t, x, v, tl, g, box, start, nbr, xb, tb, c, cnt, ev_t, ev_p, ev_c)
-                _heap_update(heap, hpos, ev_t, i, n)
+                continue
+            _predict(i, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
+            _heap_update(heap, hpos, ev_t, i, n)
             continue
         if cnt[j] != ev_c[i]:
-            _predict(i, t, x, v, tl, g, box, start, nbr, xb, tb, c, cnt, ev_t, ev_p, ev_c)
+            _predict(i, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
             _heap_update(heap, hpos, ev_t, i, n)
             continue
         # valid collision of i and j at time t
@@ -447,10 +663,13 @@ def run_chunk(x, v, g, box, state, params, hist):
         cnt[j] += 1
         coll += 1
         w_coll += 1
-        _predict(i, t, x, v, tl, g, box, start, nbr, xb, tb, c, cnt, ev_t, ev_p, ev_c)
+        since_sync += 1
+        _predict(i, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
         _heap_update(heap, hpos, ev_t, i, n)
-        _predict(j, t, x, v, tl, g, box, start, nbr, xb, tb, c, cnt, ev_t, ev_p, ev_c)
+        _predict(j, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
         _heap_update(heap, hpos, ev_t, j, n)
+        if since_sync >= sync_every:
+            need_sync = True
         if w_coll >= window:
             w_ke += ke * (t - t_last)
             t_last = t
@@ -478,7 +697,6 @@ def run_chunk(x, v, g, box, state, params, hist):
     state[2] += events
     state[4] += w_vir
     state[5] += w_ke
-    state[6] = w_coll
     state[7] = status
     return status, n_hist
 

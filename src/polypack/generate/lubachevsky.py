@@ -26,10 +26,12 @@ _DEFAULTS = dict(
     species=None,
     max_pressure=1e6,
     pressure_window=None,
-    skin=0.3,
+    skin=0.25,
+    dilute_skin=0.2,
     chunk_seconds=0.5,
     jammed_reference_fraction=0.5,
     max_events=None,
+    sync_every=None,
 )
 
 _STATUS = {0: "running", 1: "target", 2: "jammed", 3: "box_limit", 4: "event_budget"}
@@ -139,8 +141,10 @@ def pack(
         ``species`` (with an array of radii), ``max_pressure`` (jamming threshold on
         the reduced pressure ``Z = PV/(NkT)``, default 1e6), ``pressure_window``
         (collisions per pressure estimate, default ``N``), ``skin`` (neighbour shell
-        as a fraction of the radius, default 0.3), ``chunk_seconds`` (0.5),
-        ``jammed_reference_fraction`` (0.5), ``max_events``.
+        as a fraction of the radius, default 0.25), ``dilute_skin`` (shell as a fraction
+        of the radius at the target while the spheres are small, default 0.2), ``chunk_seconds`` (0.5),
+        ``jammed_reference_fraction`` (0.5), ``max_events``, ``sync_every`` (collisions
+        between full synchronisations with kinetic-energy reset, default ``4N``).
 
     Returns
     -------
@@ -211,6 +215,9 @@ def pack(
     skin = float(opt["skin"])
     if not (0.0 < skin <= 5.0):
         raise InvalidInputError(f"skin={skin}: must be in (0, 5]")
+    dilute_skin = float(opt["dilute_skin"])
+    if not (0.0 < dilute_skin <= 5.0):
+        raise InvalidInputError(f"dilute_skin={dilute_skin}: must be in (0, 5]")
     window = int(opt["pressure_window"] or max(n, 100))
 
     ss = as_seed_sequence(seed)
@@ -286,7 +293,7 @@ def pack(
                     status = "event_budget"
                     break
             params = np.array(
-                [t_stop, float(budget), p_max, float(window), (1.0 + skin) * t_ref, skin, float(ev_budget), 0.0]
+                [t_stop, float(budget), p_max, float(window), (1.0 + dilute_skin) * t_ref, skin, float(ev_budget), float(opt["sync_every"] or 0)]
             )
             hist = np.zeros((budget // max(window, 1) + 2, 3))
             c0 = state[1]
@@ -375,6 +382,7 @@ def pack(
         "collisions": collisions,
         "events": int(state[2]),
         "rebuilds": int(state[3]),
+        "shell_rebuilds": int(state[6]),
         "wall_time": time.perf_counter() - wall0,
         "run_time": run_time,
         "collisions_per_second": collisions / run_time if run_time > 0 else 0.0,
