@@ -437,10 +437,35 @@ def aggregate(out, study: Study, records) -> dict:
             for j, x in enumerate(entry["x"]):
                 w.writerow([x] + ["" if entry["curves"][c][s][j] is None else entry["curves"][c][s][j]
                                   for c in cn for s in ("mean", "lo", "hi")])
-    if study.data["output"]["plots"] and curves:
-        files["plots"] = ens / f"*.{study.data['output']['plot_format']}"
-        plot_curves(curves, ens, study.data["output"]["plot_format"], title=study.name)
+    if study.data["output"]["plots"]:
+        fmt = study.data["output"]["plot_format"]
+        files["plots"] = ens / f"*.{fmt}"
+        plot_curves(curves, ens, fmt, title=study.name)
+        plot_grading(study, records, ens / f"grading.{fmt}", fmt)
     return files
+
+
+def plot_grading(study: Study, records, path, fmt="png"):
+    """Grading curve h(d) of the model against realization 0's size set (Figs. 1, 3 of 001)."""
+    import matplotlib.pyplot as plt
+
+    from .. import psd as psd_mod
+    from .._util import atomic_path
+    from .stages import make_model, make_sizes, stage_seeds
+
+    try:
+        plot = psd_mod.plot_grading
+    except AttributeError:  # pragma: no cover - older psd
+        return
+    model = make_model(study.data["psd"])
+    sizes = make_sizes(study.data["psd"], stage_seeds(records[0]["seed"])[0]) if records else None
+    fig, ax = plt.subplots(figsize=(6, 4))
+    plot(model, sizes, ax=ax)
+    ax.set_title(f"{study.name}: grading curve, model and realization 0 (N={records[0]['n']})", fontsize=9)
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format=fmt, dpi=120)
+    plt.close(fig)
 
 
 _YLABEL = {"rdf": "g(r)", "kfunction": "K(r)", "pores": "P(r_P > r)", "windows": "p(n_h)"}

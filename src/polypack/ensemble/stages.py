@@ -65,6 +65,15 @@ def stage_seeds(seed_rec):
 
 
 # --------------------------------------------------------------------------- sizes
+def make_model(psd: dict):
+    """The :mod:`polypack.psd` model of the ``[psd]`` table."""
+    from .. import psd as psd_mod
+    from ..study import PSD_MODELS
+
+    cls_name, keys = PSD_MODELS[psd["model"]]
+    return getattr(psd_mod, cls_name)(**{k: psd[k] for k in keys if k in psd})
+
+
 def make_sizes(psd: dict, seed):
     """A :class:`polypack.psd.SizeSet` (or a compatible object) from the ``[psd]`` table.
 
@@ -72,11 +81,8 @@ def make_sizes(psd: dict, seed):
     ``polypack.psd.discretize(model, ...)`` (§1.2 of 001_ad5bae0acea940c4.txt).
     """
     from .. import psd as psd_mod
-    from ..study import PSD_MODELS
 
-    cls_name, keys = PSD_MODELS[psd["model"]]
-    params = {k: psd[k] for k in keys if k in psd}
-    model = getattr(psd_mod, cls_name)(**params)
+    model = make_model(psd)
     if psd["sampling"] == "discretize":
         kw = {k: psd[k] for k in ("n_classes", "spacing", "min_per_class", "min_total", "max_total") if k in psd}
         return psd_mod.discretize(model, seed=seed, method=psd.get("method", "random"), **kw)
