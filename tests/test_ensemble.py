@@ -226,6 +226,7 @@ def test_cli_run_and_resume(tmp_path, capsys):
     text = capsys.readouterr().out
     assert "2 computed, 0 reused" in text and str(tmp_path / "o") in text and "summary.csv" in text
     assert (tmp_path / "o" / "ensemble" / "rdf.png").stat().st_size > 1000
+    assert (tmp_path / "o" / "ensemble" / "grading.png").stat().st_size > 1000
     main(["run", str(f), "--out", str(tmp_path / "o")])
     assert "0 computed, 2 reused" in capsys.readouterr().out
 
