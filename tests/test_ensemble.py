@@ -265,3 +265,30 @@ def test_extra_formats_and_formats_added_on_resume(serial_run, tmp_path):
     for i in range(3):
         pk = pp.io.read(r / "realizations" / f"r{i:04d}.xyz")
         np.testing.assert_allclose(pk.positions, positions(out, i), rtol=0, atol=1e-9)
+
+
+def test_packs_do_not_depend_on_the_wall_clock(monkeypatch):
+    """The packer sizes its chunks from the measured collision rate; a realization must not care."""
+    from polypack.ensemble.stages import make_packing, make_sizes
+    from polypack.generate import lubachevsky as lub
+    from polypack.study import validate
+
+    if not hasattr(lub, "time"):
+        pytest.skip("packer does not read the clock")
+
+    class FakeClock:
+        def __init__(self, step):
+            self.t, self.step = 0.0, step
+
+        def perf_counter(self):
+            self.t += self.step
+            return self.t
+
+    d = validate({"psd": {"n": 300}, "protocol": {"kind": "crm", "volume_fraction": 0.6}})
+    sizes = make_sizes(d["psd"], np.random.SeedSequence(1))
+    got = []
+    for step in (1e-7, 1000.0):  # a fast and a very slow machine: large vs tiny chunks
+        monkeypatch.setattr(lub, "time", FakeClock(step))
+        got.append(make_packing(sizes, d["protocol"], np.random.SeedSequence(4)).positions)
+    monkeypatch.undo()
+    assert np.array_equal(got[0], got[1])
