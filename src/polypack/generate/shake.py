@@ -153,7 +153,7 @@ def shake(
         Target acceptance of the Metropolis adaptation (default 0.4).
     skin : float, optional
         Relative Verlet skin ``s`` (pairs with ``d <= (1 + s)(r_i + r_j)`` are
-        listed); default ``max(0.3, 3 max R_sh)``, capped by the box.  Affects speed
+        listed); default ``max(0.3, 4 max R_sh)``, capped by the box.  Affects speed
         only.
     monitor_every : int, optional
         Record the contact values ``g_km(a_k + a_m)+`` (via
@@ -250,7 +250,7 @@ def shake(
     s_cap = float(box.min()) / (4.0 * float(radii.max())) - 1.0
     rsh_top = float(rsh.max())
     if skin is None:
-        s = min(max(0.3, 3.0 * rsh_top), s_cap)
+        s = min(max(0.3, 4.0 * rsh_top), s_cap)
     else:
         s = float(skin)
         if not (np.isfinite(s) and s > 0):
@@ -339,9 +339,9 @@ def shake(
                         fac = min(1.4, max(0.7, acc[k] / target_acceptance))
                         rsh[k] = min(s_cap, max(_RSH_MIN, rsh[k] * fac))
                 hist["shake_radius_history"][-1] = [float(x) for x in rsh]
-            if adapting and 2.0 * float(rsh.max()) > s and s < s_cap:
+            if adapting and 3.0 * float(rsh.max()) > s and s < s_cap:
                 # the window grew: widen the Verlet skin so that rebuilds stay rare
-                s = min(s_cap, 3.0 * float(rsh.max()))
+                s = min(s_cap, 4.0 * float(rsh.max()))
                 reach_small = 2.0 * (1.0 + s) * float(np.percentile(radii, 10))
                 ncell = np.ascontiguousarray(choose_cells(box, packing.n, reach_small), dtype=np.int64)
                 start, idx = kern.build_list(pos, radii, box, s, ncell)
