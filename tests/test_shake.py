@@ -270,3 +270,17 @@ def test_cli_shake(tmp_path, capsys):
     assert exc.value.code == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "shake_radius=-1.0" in err
+
+
+def test_cli_scrm(tmp_path, capsys):
+    from polypack.cli import main
+
+    dst = tmp_path / "scrm.gsd"
+    ret = main(["scrm", "--n", "200", "-c", "0.45", "--growth-steps", "2", "-M", "2", "--seed", "3",
+                "--size-ratio", "0.5", "--volume-ratio", "0.5", "-o", str(dst)])
+    assert not ret
+    out = pp.io.read(dst)
+    assert out.n == 200 and out.n_species == 2 and out.min_gap() >= 0
+    assert out.volume_fraction == pytest.approx(0.45, rel=1e-9)
+    assert out.meta["scrm"]["schedule"] == pytest.approx([0.36, 0.45])
+    assert "2 growth stages" in capsys.readouterr().out
