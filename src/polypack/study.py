@@ -58,7 +58,8 @@ Schema
     ``kind = "crm" | "scrm"``, ``volume_fraction`` (in (0, 1) or ``"jammed"``),
     ``growth_rate`` (> 0), ``max_seconds`` (wall-clock budget of the growth, > 0),
     ``global_shakes`` (M >= 0; for ``"crm"`` a positive M shakes the finished pack),
-    ``shake_radius`` (> 0), ``max_trials`` (>= 1), ``shake_method`` (str), ``adaptive`` (bool);
+    ``shake_radius`` (> 0), ``max_trials`` (>= 1), ``shake_method`` (``"paper"``, ``"collision"``,
+    ``"metropolis"``), ``adaptive`` (bool);
     SCRM only: ``schedule`` (increasing volume fractions of the growth stages; the target is
     appended), or ``growth_steps`` (>= 1) from ``start_fraction``; ``stage_shakes`` (global
     shakes after each stage).
@@ -301,7 +302,7 @@ SCHEMA = {
         "global_shakes": Field(int_min(0), None),
         "shake_radius": Field(positive, None),
         "max_trials": Field(int_min(1), None),
-        "shake_method": Field(string, None),
+        "shake_method": Field(choice("paper", "collision", "metropolis"), None),
         "adaptive": Field(boolean, None),
         "schedule": Field(schedule, None),
         "growth_steps": Field(int_min(1), None),

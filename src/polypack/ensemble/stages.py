@@ -98,10 +98,13 @@ def _accepted(func, kwargs):
     return {k: v for k, v in kwargs.items() if k in sig.parameters}
 
 
+_SHAKE_KEYS = (("shake_radius", "shake_radius"), ("max_trials", "max_trials"), ("shake_method", "method"),
+               ("adaptive", "adaptive"))
+
+
 def _shake_options(pr):
     opts = {}
-    for key, arg in (("shake_radius", "shake_radius"), ("max_trials", "max_trials"), ("shake_method", "method"),
-                     ("adaptive", "adaptive")):
+    for key, arg in _SHAKE_KEYS:
         if key in pr:
             opts[arg] = pr[key]
     return opts
@@ -117,30 +120,17 @@ def check_available(study_data):
 
     pr = study_data["protocol"]
     needs = ["pack"]
-    if pr["kind"] == "scrm" or pr.get("global_shakes", 0) > 0:
-        needs.append("scrm" if pr["kind"] == "scrm" else "shake")
+    if pr["kind"] == "scrm":
+        needs.append("scrm")
+    if pr.get("global_shakes", 0) > 0:
+        needs.append("shake")
     for name in needs:
         try:
             getattr(pp, name)
         except (ImportError, AttributeError):
-            if name == "scrm":
-                try:
-                    getattr(pp, "shake")
-                    continue  # pack + shake fallback
-                except (ImportError, AttributeError):
-                    pass
             raise InvalidInputError(
                 f'protocol.kind = "{pr["kind"]}": polypack.{name} is not available in this installation'
             ) from None
-    for key in ("schedule", "growth_steps", "start_fraction", "stage_shakes"):
-        if key not in pr:
-            continue
-        try:
-            scrm = pp.scrm
-        except (ImportError, AttributeError):
-            raise InvalidInputError(f"protocol.{key}: needs polypack.scrm, not available here") from None
-        if key not in _accepted(scrm, {key: 1}):
-            raise InvalidInputError(f"protocol.{key}: not supported by this polypack.scrm")
     try:
         from .. import psd as psd_mod  # noqa: F401
         from ..study import PSD_MODELS
@@ -160,6 +150,24 @@ def check_available(study_data):
             raise InvalidInputError(f"analysis.{name}: polypack.analysis.{cls} is not available here") from None
 
 
+def _check_shake_options(pr):
+    """Let :func:`polypack.shake` judge the shake options on a two-sphere pack (no shakes)."""
+    opts = _shake_options(pr)
+    if not opts or not (pr["kind"] == "scrm" or pr.get("global_shakes", 0) > 0):
+        return
+    import polypack as pp
+    from ..packing import Packing
+
+    tiny = Packing(np.array([[0.0, 0.0, 0.0], [2.5, 2.5, 2.5]]), np.array([0.5, 0.25]), np.full(3, 5.0),
+                   species=np.array([0, 1]))
+    try:
+        pp.shake(tiny, global_shakes=0, seed=0, progress=False, **opts)
+    except InvalidInputError as exc:
+        msg = str(exc)
+        key = next((k for k, a in _SHAKE_KEYS if msg.startswith(f"{a}=")), None)
+        raise InvalidInputError(f"protocol.{key}: {msg}" if key else f"protocol: {msg}") from None
+
+
 def preflight(study_data, seed_rec):
     """Cheap checks on realization 0's sizes before anything runs.
 
@@ -167,6 +175,7 @@ def preflight(study_data, seed_rec):
     beyond half the box (which every analysis would reject after the packing) is
     reported at once with its key path.
     """
+    _check_shake_options(study_data["protocol"])
     s_sizes, _, _ = stage_seeds(seed_rec)
     sizes = make_sizes(study_data["psd"], s_sizes)
     vf = study_data["protocol"]["volume_fraction"]
@@ -188,8 +197,8 @@ def make_packing(sizes, protocol: dict, seed):
 
     ``kind = "crm"``: :func:`polypack.pack` (CRM, §3.1 of 000_2cedc098acbd866b.txt), then
     ``global_shakes`` global shakes with :func:`polypack.shake` if M > 0.
-    ``kind = "scrm"``: :func:`polypack.scrm` (CRM interleaved with shaking, §3.2), or
-    pack + shake where ``scrm`` is not available.
+    ``kind = "scrm"``: :func:`polypack.scrm` (CRM interleaved with shaking, §3.2, then
+    ``global_shakes`` global shakes).
     """
     import polypack as pp
 
@@ -202,24 +211,19 @@ def make_packing(sizes, protocol: dict, seed):
         grow["max_seconds"] = pr["max_seconds"]
     m = int(pr.get("global_shakes", 0))
     if pr["kind"] == "scrm":
-        try:
-            scrm = pp.scrm
-        except (ImportError, AttributeError):
-            scrm = None
-        if scrm is not None:
-            kw = dict(global_shakes=m, **_shake_options(pr))
-            if "growth_rate" in pr:
-                kw["growth_rate"] = pr["growth_rate"]
-            for key in ("growth_steps", "start_fraction", "stage_shakes"):
-                if key in pr:
-                    kw[key] = pr[key]
-            if "schedule" in pr:
-                sched = list(pr["schedule"])
-                if sched[-1] < pr["volume_fraction"]:
-                    sched.append(pr["volume_fraction"])
-                kw["schedule"] = sched
-            with deterministic_packing():
-                return scrm(sizes, volume_fraction=pr["volume_fraction"], seed=s_pack, progress=False, **kw)
+        kw = dict(global_shakes=m, **_shake_options(pr))
+        if "growth_rate" in pr:
+            kw["growth_rate"] = pr["growth_rate"]
+        for key in ("growth_steps", "start_fraction", "stage_shakes"):
+            if key in pr:
+                kw[key] = pr[key]
+        if "schedule" in pr:
+            sched = list(pr["schedule"])
+            if sched[-1] < pr["volume_fraction"]:
+                sched.append(pr["volume_fraction"])
+            kw["schedule"] = sched
+        with deterministic_packing():
+            return pp.scrm(sizes, volume_fraction=pr["volume_fraction"], seed=s_pack, progress=False, **kw)
     with deterministic_packing():
         pk = pp.pack(sizes, pr["volume_fraction"], seed=s_pack, progress=False, **grow)
     if m > 0:
