@@ -292,3 +292,37 @@ def test_packs_do_not_depend_on_the_wall_clock(monkeypatch):
         got.append(make_packing(sizes, d["protocol"], np.random.SeedSequence(4)).positions)
     monkeypatch.undo()
     assert np.array_equal(got[0], got[1])
+
+
+def test_killed_process_resumes_to_the_same_results(serial_run, tmp_path):
+    """SIGKILL the whole `polypack run` process group mid-run, rerun: same packs as uninterrupted."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from polypack.study import Study
+
+    out, _ = serial_run
+    f = tmp_path / "tiny.toml"
+    f.write_text(Study.from_dict(tiny()).to_toml())
+    o = tmp_path / "o"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "polypack.cli", "run", str(f), "--out", str(o), "--workers", "2"],
+        start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )
+    try:
+        t0 = time.time()
+        while not (o / "realizations" / "r0000.json").exists() and not (o / "realizations" / "r0001.json").exists():
+            assert proc.poll() is None, "run ended before writing a record"
+            assert time.time() - t0 < 120
+            time.sleep(0.02)
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+    done = sorted(int(p.stem[1:]) for p in (o / "realizations").glob("r*.json"))
+    res = pp.ensemble.run_study(tiny(), o)
+    assert res.skipped == done and sorted(res.computed + done) == [0, 1, 2]
+    assert not list((o / "realizations").glob(".*.tmp"))
+    assert_same(results(out, 3), results(o, 3))

@@ -222,6 +222,8 @@ def run_study(
     out = Path(out)
     _check_out(out, study, force)
     (out / "realizations").mkdir(parents=True, exist_ok=True)
+    for tmp in (out / "realizations").glob(".r[0-9]*.tmp"):  # left by a killed run
+        tmp.unlink(missing_ok=True)
     study.write_resolved(out)
 
     records = {}
