@@ -50,9 +50,12 @@ SEED_REDUCTION = {0.575: 0.43, 0.6: 0.21, 0.63: 0.04}  # §5.1 of 000_2cedc098ac
 SHAKE = dict(global_shakes=60, shake_radius=0.02, max_trials=150, method="paper")
 
 
+SEED_ESTIMATOR = {"width": 0.005, "n_bins": 1, "degree": 0}
+
+
 def g_contact(pk):
     """The seed's g(2a+): histogram g in [2a, 2.01a)."""
-    return contact_value(pk, width=0.005, n_bins=1, degree=0)[(0, 0)]
+    return contact_value(pk, **SEED_ESTIMATOR)[(0, 0)]
 
 
 def main():
@@ -78,15 +81,13 @@ def main():
             s_pack, s_shake, s_scrm = ss.spawn(3)
             t0 = time.perf_counter()
             crm = pp.pack(radii, volume_fraction=c, seed=s_pack)
-            track = []
-            callback = None
+            # convergence monitor with the seed's estimator, every 3 global shakes
+            monitor = dict(monitor_every=3, monitor_options=SEED_ESTIMATOR) if (c == 0.575 and r == 0) else \
+                dict(monitor_every=0)
+            shaken = pp.shake(crm, seed=s_shake, **monitor, **SHAKE)
             if c == 0.575 and r == 0:
-                track.append((0, g_contact(crm)))
-
-                def callback(m, p, track=track):
-                    track.append((m, g_contact(p)))
-
-            shaken = pp.shake(crm, seed=s_shake, monitor_every=0, callback=callback, **SHAKE)
+                mon = shaken.meta["shake"]["monitor"]
+                conv = list(zip(mon["global_shake"], mon["contact_value"]["0-0"]))
             scrm = pp.scrm(radii, volume_fraction=c, seed=s_scrm, global_shakes=60, monitor_every=0,
                            shake_radius=0.02, max_trials=150)
             for name, pk in zip(protocols, (crm, shaken, scrm)):
@@ -94,8 +95,6 @@ def main():
                 gc[c][name].append(g_contact(pk))
                 if c == 0.6:
                     windows[name].compute(pk, reset=False)
-            if track:
-                conv = track
             print(f"c={c} realization {r}: g(2a+) CRM {gc[c]['CRM'][-1]:.2f}, shaken {gc[c]['CRM + shaking'][-1]:.2f}, "
                   f"SCRM {gc[c]['SCRM'][-1]:.2f}  ({time.perf_counter() - t0:.1f} s)", flush=True)
 

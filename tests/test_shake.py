@@ -213,6 +213,13 @@ def test_monitor_and_callback():
     assert len(vals) == 4
     assert vals[-1] == pytest.approx(contact_value(out, width=0.05)[(0, 0)], rel=1e-12)
     assert seen == [(m, True) for m in range(1, 7)]
+    seed_est = {"width": 0.005, "n_bins": 1, "degree": 0}  # the seed's histogram g(2a+), dr = 0.01a
+    first = shake(pk, global_shakes=3, method="paper", seed=1, monitor_options=seed_est)
+    mon = first.meta["shake"]["monitor"]
+    assert mon["global_shake"] == [0, 3]
+    assert mon["contact_value"]["0-0"][-1] == pytest.approx(contact_value(first, **seed_est)[(0, 0)], rel=1e-12)
+    with pytest.raises(InvalidInputError, match="monitor_options"):
+        shake(pk, global_shakes=1, monitor_options={"bins": 3})
     none = shake(pk, global_shakes=2, seed=1, monitor_every=0)
     assert none.meta["shake"]["monitor"] is None
 

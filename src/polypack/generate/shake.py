@@ -64,10 +64,10 @@ def _check_int(name, value, minimum):
     return int(value)
 
 
-def _contact_monitor(packing, width, pairs):
+def _contact_monitor(packing, options, pairs):
     from ..analysis import contact_value
 
-    vals = contact_value(packing, pairs=pairs, width=width, n_bins=10, degree=1)
+    vals = contact_value(packing, pairs=pairs, **options)
     return {f"{k}-{m}": float(vals[(k, m)]) for k, m in pairs}
 
 
@@ -87,7 +87,7 @@ def shake(
     target_acceptance=0.4,
     skin=None,
     monitor_every=None,
-    monitor_width=0.05,
+    monitor_options=None,
     callback=None,
 ) -> Packing:
     """Monte-Carlo shaking of a hard-sphere pack (§3.2 of 000_2cedc098acbd866b.txt).
@@ -159,8 +159,11 @@ def shake(
         Record the contact values ``g_km(a_k + a_m)+`` (via
         :func:`polypack.analysis.contact_value`) every this many global shakes;
         default ``None`` records only before and after, ``0`` never.
-    monitor_width : float
-        Relative-gap window of the contact-value extrapolation (default 0.05).
+    monitor_options : dict, optional
+        Options of :func:`polypack.analysis.contact_value` for the monitor; default
+        ``{"width": 0.05, "n_bins": 10, "degree": 1}`` (linear extrapolation over a
+        5 % gap window).  The seed's own estimator, the histogram value in
+        ``[2a, 2a + 0.01a)`` (§5.1), is ``{"width": 0.005, "n_bins": 1, "degree": 0}``.
     callback : callable, optional
         ``callback(m, packing)`` after every global shake ``m = 1..M``.
 
@@ -229,9 +232,13 @@ def shake(
         raise InvalidInputError(f"target_acceptance={target_acceptance!r}: must be in (0, 1)")
     if monitor_every is not None:
         monitor_every = _check_int("monitor_every", monitor_every, 0)
-    monitor_width = float(monitor_width)
-    if not (0 < monitor_width <= 0.5):
-        raise InvalidInputError(f"monitor_width={monitor_width!r}: must be in (0, 0.5]")
+    mon_opts = {"width": 0.05, "n_bins": 10, "degree": 1}
+    if monitor_options is not None:
+        if not isinstance(monitor_options, dict) or set(monitor_options) - set(mon_opts):
+            raise InvalidInputError(
+                f"monitor_options={monitor_options!r}: a dict with keys among {sorted(mon_opts)}"
+            )
+        mon_opts.update(monitor_options)
     if callback is not None and not callable(callback):
         raise InvalidInputError(f"callback={callback!r}: must be callable as callback(m, packing)")
     ss = as_seed_sequence(seed)
@@ -275,11 +282,11 @@ def shake(
     counts = np.bincount(species, minlength=ns).astype(np.float64)
     present = [k for k in range(ns) if counts[k] > 0]
     pairs = [(k, m) for ki, k in enumerate(present) for m in present[ki:]]
-    monitor = {"global_shake": [], "contact_value": {f"{k}-{m}": [] for k, m in pairs}}
+    monitor = {"global_shake": [], "contact_value": {f"{k}-{m}": [] for k, m in pairs}, "options": mon_opts}
 
     def record(m, pk):
         monitor["global_shake"].append(m)
-        vals = _contact_monitor(pk, monitor_width, pairs)
+        vals = _contact_monitor(pk, mon_opts, pairs)
         for key, v in vals.items():
             monitor["contact_value"][key].append(v)
 
@@ -314,7 +321,7 @@ def shake(
             t0 = time.perf_counter()
             start, idx, nreb = kern.shake_sweeps(
                 pos, since, radii, species, box, rsh, start, idx, s, ncell, code, ocode, trials, chunk,
-                adapting and method != "metropolis", adapt_factor, _RSH_MIN, s, rng, net, stats,
+                adapting and method != "metropolis", adapt_factor, _RSH_MIN, 0.5 * s, rng, net, stats,
             )
             kernel_time += time.perf_counter() - t0
             rebuilds += int(nreb)
