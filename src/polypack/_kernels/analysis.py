@@ -10,16 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .cells import _larger, build_cells, min_image
-
-
-@njit(cache=True)
-def _cell_range(reach, cl, ncell, k):
-    """Half-width in cells of the search along axis ``k``; -1 means the whole axis."""
-    r = int(np.ceil(reach / cl[k]))
-    if 2 * r + 1 >= ncell[k]:
-        return -1
-    return r
+from .cells import _larger, build_cells, cell_lengths, cells_in_reach, min_image, separation2
 
 
 @njit(cache=True)
@@ -59,60 +50,34 @@ def pair_histogram(pos, radii, species, box, nspecies, x_max, nbins, scaled, nce
     if n < 2:
         return counts
     cell_of, start, order = build_cells(pos, box, ncell)
-    cl = np.empty(3, np.float64)
-    for k in range(3):
-        cl[k] = box[k] / ncell[k]
+    cl = cell_lengths(box, ncell)
+    visit = np.empty(start.shape[0] - 1, np.int64)
     h = x_max / nbins
     inv_h = 1.0 / h
-    lo = np.empty(3, np.int64)
-    hi = np.empty(3, np.int64)
-    full = np.zeros(3, np.bool_)
-    cc = np.empty(3, np.int64)
     for i in range(n):
         if scaled:
             reach = 2.0 * x_max * radii[i]
         else:
             reach = x_max
-        ic = cell_of[i]
-        cc[2] = ic % ncell[2]
-        cc[1] = (ic // ncell[2]) % ncell[1]
-        cc[0] = ic // (ncell[1] * ncell[2])
-        for k in range(3):
-            r = _cell_range(reach, cl, ncell, k)
-            if r < 0:
-                full[k] = True
-                lo[k] = 0
-                hi[k] = ncell[k] - 1
-            else:
-                full[k] = False
-                lo[k] = -r
-                hi[k] = r
         si = species[i]
-        for ox in range(lo[0], hi[0] + 1):
-            x = ox if full[0] else (cc[0] + ox) % ncell[0]
-            for oy in range(lo[1], hi[1] + 1):
-                y = oy if full[1] else (cc[1] + oy) % ncell[1]
-                for oz in range(lo[2], hi[2] + 1):
-                    z = oz if full[2] else (cc[2] + oz) % ncell[2]
-                    c = (x * ncell[1] + y) * ncell[2] + z
-                    for s in range(start[c], start[c + 1]):
-                        j = order[s]
-                        if j == i or not _larger(i, j, radii):
-                            continue
-                        dx = min_image(pos[j, 0] - pos[i, 0], box[0])
-                        dy = min_image(pos[j, 1] - pos[i, 1], box[1])
-                        dz = min_image(pos[j, 2] - pos[i, 2], box[2])
-                        d = np.sqrt(dx * dx + dy * dy + dz * dz)
-                        if scaled:
-                            xv = d / (radii[i] + radii[j])
-                        else:
-                            xv = d
-                        b = int(np.floor(xv * inv_h + 1e-9))
-                        if b >= nbins:
-                            continue
-                        sj = species[j]
-                        counts[si * nspecies + sj, b] += 1
-                        counts[sj * nspecies + si, b] += 1
+        nv = cells_in_reach(cell_of[i], reach, cl, ncell, visit)
+        for q in range(nv):
+            c = visit[q]
+            for s in range(start[c], start[c + 1]):
+                j = order[s]
+                if j == i or not _larger(i, j, radii):
+                    continue
+                d = np.sqrt(separation2(pos, i, j, box))
+                if scaled:
+                    xv = d / (radii[i] + radii[j])
+                else:
+                    xv = d
+                b = int(np.floor(xv * inv_h + 1e-9))
+                if b >= nbins:
+                    continue
+                sj = species[j]
+                counts[si * nspecies + sj, b] += 1
+                counts[sj * nspecies + si, b] += 1
     return counts
 
 
@@ -240,46 +205,18 @@ def window_counts(pos, radii, species, box, nspecies, window, ncell):
     if n < 2:
         return out
     cell_of, start, order = build_cells(pos, box, ncell)
-    cl = np.empty(3, np.float64)
-    for k in range(3):
-        cl[k] = box[k] / ncell[k]
-    lo = np.empty(3, np.int64)
-    hi = np.empty(3, np.int64)
-    full = np.zeros(3, np.bool_)
-    cc = np.empty(3, np.int64)
+    cl = cell_lengths(box, ncell)
+    visit = np.empty(start.shape[0] - 1, np.int64)
     for i in range(n):
         reach = window[i]
-        ic = cell_of[i]
-        cc[2] = ic % ncell[2]
-        cc[1] = (ic // ncell[2]) % ncell[1]
-        cc[0] = ic // (ncell[1] * ncell[2])
-        for k in range(3):
-            r = _cell_range(reach, cl, ncell, k)
-            if r < 0:
-                full[k] = True
-                lo[k] = 0
-                hi[k] = ncell[k] - 1
-            else:
-                full[k] = False
-                lo[k] = -r
-                hi[k] = r
         r2 = reach * reach
-        for ox in range(lo[0], hi[0] + 1):
-            x = ox if full[0] else (cc[0] + ox) % ncell[0]
-            for oy in range(lo[1], hi[1] + 1):
-                y = oy if full[1] else (cc[1] + oy) % ncell[1]
-                for oz in range(lo[2], hi[2] + 1):
-                    z = oz if full[2] else (cc[2] + oz) % ncell[2]
-                    c = (x * ncell[1] + y) * ncell[2] + z
-                    for s in range(start[c], start[c + 1]):
-                        j = order[s]
-                        if j == i:
-                            continue
-                        dx = min_image(pos[j, 0] - pos[i, 0], box[0])
-                        dy = min_image(pos[j, 1] - pos[i, 1], box[1])
-                        dz = min_image(pos[j, 2] - pos[i, 2], box[2])
-                        if dx * dx + dy * dy + dz * dz <= r2:
-                            out[i, species[j]] += 1
+        nv = cells_in_reach(cell_of[i], reach, cl, ncell, visit)
+        for q in range(nv):
+            c = visit[q]
+            for s in range(start[c], start[c + 1]):
+                j = order[s]
+                if j != i and separation2(pos, i, j, box) <= r2:
+                    out[i, species[j]] += 1
     return out
 
 

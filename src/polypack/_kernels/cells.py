@@ -78,6 +78,77 @@ def _larger(i, j, radii):
 
 
 @njit(cache=True)
+def cell_lengths(box, ncell):
+    """Edge lengths of one cell of the grid."""
+    cl = np.empty(3, np.float64)
+    for k in range(3):
+        cl[k] = box[k] / ncell[k]
+    return cl
+
+
+@njit(cache=True)
+def cells_in_reach(ic, reach, cl, ncell, out):
+    """Flat indices of every cell within ``reach`` of cell ``ic``, each listed once.
+
+    Along an axis where the reach wraps around the whole box every cell is listed
+    (periodic images never make a cell appear twice).  Writes into ``out`` (length
+    at least the number of cells) and returns how many were written.
+    """
+    cz = ic % ncell[2]
+    cy = (ic // ncell[2]) % ncell[1]
+    cx = ic // (ncell[1] * ncell[2])
+    lo = np.empty(3, np.int64)
+    hi = np.empty(3, np.int64)
+    full = np.zeros(3, np.bool_)
+    for k in range(3):
+        r = int(np.ceil(reach / cl[k]))
+        if 2 * r + 1 >= ncell[k]:
+            full[k] = True
+            lo[k] = 0
+            hi[k] = ncell[k] - 1
+        else:
+            lo[k] = -r
+            hi[k] = r
+    m = 0
+    for ox in range(lo[0], hi[0] + 1):
+        x = ox if full[0] else (cx + ox) % ncell[0]
+        for oy in range(lo[1], hi[1] + 1):
+            y = oy if full[1] else (cy + oy) % ncell[1]
+            for oz in range(lo[2], hi[2] + 1):
+                z = oz if full[2] else (cz + oz) % ncell[2]
+                out[m] = (x * ncell[1] + y) * ncell[2] + z
+                m += 1
+    return m
+
+
+@njit(cache=True)
+def separation2(pos, i, j, box):
+    """Squared minimum-image distance between centres ``i`` and ``j``."""
+    dx = min_image(pos[j, 0] - pos[i, 0], box[0])
+    dy = min_image(pos[j, 1] - pos[i, 1], box[1])
+    dz = min_image(pos[j, 2] - pos[i, 2], box[2])
+    return dx * dx + dy * dy + dz * dz
+
+
+@njit(cache=True)
+def _append_pair(pi, pj, pd, m, i, j, d):
+    """Store pair ``m``; returns the (possibly reallocated, doubled) arrays."""
+    if m == pi.shape[0]:
+        cap = 2 * m
+        ni = np.empty(cap, np.int64)
+        nj = np.empty(cap, np.int64)
+        nd = np.empty(cap, np.float64)
+        ni[:m] = pi[:m]
+        nj[:m] = pj[:m]
+        nd[:m] = pd[:m]
+        pi, pj, pd = ni, nj, nd
+    pi[m] = i
+    pj[m] = j
+    pd[m] = d
+    return pi, pj, pd
+
+
+@njit(cache=True)
 def pairs_within(pos, radii, box, a, b, ncell):
     """All pairs with ``d_ij <= a (r_i + r_j) + b`` (minimum image), each once.
 
@@ -108,58 +179,21 @@ def pairs_within(pos, radii, box, a, b, ncell):
     pj = np.empty(cap, np.int64)
     pd = np.empty(cap, np.float64)
     m = 0
-    cl = np.empty(3, np.float64)
-    for k in range(3):
-        cl[k] = box[k] / ncell[k]
-    reach_idx = np.empty(3, np.int64)
+    cl = cell_lengths(box, ncell)
+    visit = np.empty(start.shape[0] - 1, np.int64)
     for i in range(n):
-        reach = 2.0 * a * radii[i] + b
-        ic = cell_of[i]
-        cz = ic % ncell[2]
-        cy = (ic // ncell[2]) % ncell[1]
-        cx = ic // (ncell[1] * ncell[2])
-        full = np.zeros(3, np.bool_)
-        for k in range(3):
-            r = int(np.ceil(reach / cl[k]))
-            reach_idx[k] = r
-            if 2 * r + 1 >= ncell[k]:
-                full[k] = True
-        lox = 0 if full[0] else -reach_idx[0]
-        hix = ncell[0] - 1 if full[0] else reach_idx[0]
-        loy = 0 if full[1] else -reach_idx[1]
-        hiy = ncell[1] - 1 if full[1] else reach_idx[1]
-        loz = 0 if full[2] else -reach_idx[2]
-        hiz = ncell[2] - 1 if full[2] else reach_idx[2]
-        for ox in range(lox, hix + 1):
-            x = ox if full[0] else (cx + ox) % ncell[0]
-            for oy in range(loy, hiy + 1):
-                y = oy if full[1] else (cy + oy) % ncell[1]
-                for oz in range(loz, hiz + 1):
-                    z = oz if full[2] else (cz + oz) % ncell[2]
-                    c = (x * ncell[1] + y) * ncell[2] + z
-                    for s in range(start[c], start[c + 1]):
-                        j = order[s]
-                        if j == i or not _larger(i, j, radii):
-                            continue
-                        dx = min_image(pos[j, 0] - pos[i, 0], box[0])
-                        dy = min_image(pos[j, 1] - pos[i, 1], box[1])
-                        dz = min_image(pos[j, 2] - pos[i, 2], box[2])
-                        d2 = dx * dx + dy * dy + dz * dz
-                        lim = a * (radii[i] + radii[j]) + b
-                        if d2 <= lim * lim:
-                            if m == cap:
-                                cap *= 2
-                                ni = np.empty(cap, np.int64)
-                                nj = np.empty(cap, np.int64)
-                                nd = np.empty(cap, np.float64)
-                                ni[:m] = pi[:m]
-                                nj[:m] = pj[:m]
-                                nd[:m] = pd[:m]
-                                pi, pj, pd = ni, nj, nd
-                            pi[m] = i
-                            pj[m] = j
-                            pd[m] = np.sqrt(d2)
-                            m += 1
+        nv = cells_in_reach(cell_of[i], 2.0 * a * radii[i] + b, cl, ncell, visit)
+        for q in range(nv):
+            c = visit[q]
+            for s in range(start[c], start[c + 1]):
+                j = order[s]
+                if j == i or not _larger(i, j, radii):
+                    continue
+                d2 = separation2(pos, i, j, box)
+                lim = a * (radii[i] + radii[j]) + b
+                if d2 <= lim * lim:
+                    pi, pj, pd = _append_pair(pi, pj, pd, m, i, j, np.sqrt(d2))
+                    m += 1
     return pi[:m].copy(), pj[:m].copy(), pd[:m].copy()
 
 
@@ -176,24 +210,10 @@ def pairs_brute(pos, radii, box, a, b):
         for j in range(n):
             if j == i or not _larger(i, j, radii):
                 continue
-            dx = min_image(pos[j, 0] - pos[i, 0], box[0])
-            dy = min_image(pos[j, 1] - pos[i, 1], box[1])
-            dz = min_image(pos[j, 2] - pos[i, 2], box[2])
-            d2 = dx * dx + dy * dy + dz * dz
+            d2 = separation2(pos, i, j, box)
             lim = a * (radii[i] + radii[j]) + b
             if d2 <= lim * lim:
-                if m == cap:
-                    cap *= 2
-                    ni = np.empty(cap, np.int64)
-                    nj = np.empty(cap, np.int64)
-                    nd = np.empty(cap, np.float64)
-                    ni[:m] = pi[:m]
-                    nj[:m] = pj[:m]
-                    nd[:m] = pd[:m]
-                    pi, pj, pd = ni, nj, nd
-                pi[m] = i
-                pj[m] = j
-                pd[m] = np.sqrt(d2)
+                pi, pj, pd = _append_pair(pi, pj, pd, m, i, j, np.sqrt(d2))
                 m += 1
     return pi[:m].copy(), pj[:m].copy(), pd[:m].copy()
 
