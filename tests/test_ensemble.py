@@ -106,6 +106,16 @@ def test_ensemble_curves_are_mean_and_95_band(serial_run):
     # window histograms: probabilities pooled over realizations still sum to one
     p = np.array(doc["analyses"]["windows"]["curves"]["p"]["mean"], dtype=float)
     assert p.sum() == pytest.approx(1.0, abs=1e-9)
+    # pore-size grids follow each pack's largest pore: curves are interpolated onto the widest grid
+    pe = doc["analyses"]["pores"]
+    xs = [np.array(r["analysis"]["pores"]["r"], dtype=float) for r in res.records]
+    assert pe["regridded"] == (not all(np.array_equal(xs[0], x) for x in xs))
+    x = np.array(pe["x"], dtype=float)
+    assert x[-1] == pytest.approx(max(xi[-1] for xi in xs), rel=1e-12)
+    surv = [np.interp(x, xi, np.array(r["analysis"]["pores"]["survival"], dtype=float))
+            for xi, r in zip(xs, res.records)]
+    np.testing.assert_allclose(np.array(pe["curves"]["survival"]["mean"], dtype=float), np.mean(surv, axis=0),
+                               rtol=1e-12, atol=1e-15)
     sc = json.loads((out / "ensemble" / "scalars.json").read_text())
     cn = [r["scalars"]["contacts.coordination"] for r in res.records]
     assert sc["contacts.coordination"]["mean"] == pytest.approx(np.mean(cn), rel=1e-12)

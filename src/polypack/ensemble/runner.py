@@ -341,19 +341,31 @@ def ensemble_curves(records) -> dict:
                 continue
             xname = sets[0][0]
             length = max(len(s[1]) for s in sets)
+            xs = [_as_float(s[1]) for s in sets]
+            regrid = False
             if xname == "n_h":  # histograms of different lengths: pad with p = 0
                 x = np.arange(length, dtype=np.float64)
-            else:
-                if any(len(s[1]) != length for s in sets):
-                    continue
-                x = _as_float(sets[0][1])
-            entry = {"x_name": xname, "x": x.tolist(), "n_realizations": len(sets), "curves": {}}
+            elif all(xi.shape == xs[0].shape and np.array_equal(xi, xs[0]) for xi in xs):
+                x = xs[0]
+            else:  # grids that follow the data (pore sizes): onto the widest one
+                regrid = True
+                x = max(xs, key=lambda xi: xi[-1] - xi[0])
+                length = x.size
+            entry = {"x_name": xname, "x": x.tolist(), "n_realizations": len(sets), "regridded": regrid,
+                     "curves": {}}
             cnames = sorted(set().union(*(s[2] for s in sets)))
             for c in cnames:
                 y = np.zeros((len(sets), length)) if xname == "n_h" else np.full((len(sets), length), np.nan)
                 for i, s in enumerate(sets):
                     v = s[2].get(c)
-                    if v is not None:
+                    if v is None:
+                        continue
+                    if regrid:  # linear interpolation, edge values held beyond a realization's range
+                        yi = _as_float(v)
+                        ok = np.isfinite(yi)
+                        if ok.sum() >= 2:
+                            y[i] = np.interp(x, xs[i][ok], yi[ok])
+                    else:
                         y[i, : len(v)] = _as_float(v)
                 with np.errstate(invalid="ignore", divide="ignore"):
                     cnt = np.sum(np.isfinite(y), axis=0)
@@ -494,6 +506,8 @@ def plot_curves(curves: dict, folder, fmt="png", title=""):
             lo = np.array([np.nan if v is None else v for v in d["lo"]])
             hi = np.array([np.nan if v is None else v for v in d["hi"]])
             if name.startswith("windows"):
+                if np.nan_to_num(mean[0]) > 0.99:
+                    continue  # (almost) every window empty: a spike at n_h = 0 hides the others
                 ax.errorbar(x, mean, yerr=[mean - lo, hi - mean], fmt="o-", ms=3, label=c)
             else:
                 (line,) = ax.plot(x, mean, lw=1.2, label=c)
