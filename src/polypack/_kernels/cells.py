@@ -149,6 +149,17 @@ def _append_pair(pi, pj, pd, m, i, j, d):
 
 
 @njit(cache=True)
+def _test_pair(pos, radii, box, a, b, i, j, pi, pj, pd, m):
+    """Append pair (i, j) if ``d_ij <= a (r_i + r_j) + b``; returns arrays and new count."""
+    d2 = separation2(pos, i, j, box)
+    lim = a * (radii[i] + radii[j]) + b
+    if d2 <= lim * lim:
+        pi, pj, pd = _append_pair(pi, pj, pd, m, i, j, np.sqrt(d2))
+        m += 1
+    return pi, pj, pd, m
+
+
+@njit(cache=True)
 def pairs_within(pos, radii, box, a, b, ncell):
     """All pairs with ``d_ij <= a (r_i + r_j) + b`` (minimum image), each once.
 
@@ -189,11 +200,7 @@ def pairs_within(pos, radii, box, a, b, ncell):
                 j = order[s]
                 if j == i or not _larger(i, j, radii):
                     continue
-                d2 = separation2(pos, i, j, box)
-                lim = a * (radii[i] + radii[j]) + b
-                if d2 <= lim * lim:
-                    pi, pj, pd = _append_pair(pi, pj, pd, m, i, j, np.sqrt(d2))
-                    m += 1
+                pi, pj, pd, m = _test_pair(pos, radii, box, a, b, i, j, pi, pj, pd, m)
     return pi[:m].copy(), pj[:m].copy(), pd[:m].copy()
 
 
@@ -210,11 +217,7 @@ def pairs_brute(pos, radii, box, a, b):
         for j in range(n):
             if j == i or not _larger(i, j, radii):
                 continue
-            d2 = separation2(pos, i, j, box)
-            lim = a * (radii[i] + radii[j]) + b
-            if d2 <= lim * lim:
-                pi, pj, pd = _append_pair(pi, pj, pd, m, i, j, np.sqrt(d2))
-                m += 1
+            pi, pj, pd, m = _test_pair(pos, radii, box, a, b, i, j, pi, pj, pd, m)
     return pi[:m].copy(), pj[:m].copy(), pd[:m].copy()
 
 
