@@ -291,3 +291,26 @@ def test_cli_scrm(tmp_path, capsys):
     assert out.volume_fraction == pytest.approx(0.45, rel=1e-9)
     assert out.meta["scrm"]["schedule"] == pytest.approx([0.36, 0.45])
     assert "2 growth stages" in capsys.readouterr().out
+
+
+def test_collision_best_of_directions_moves_farther():
+    """Eq. (9) with N_sh directions (Δt = max_l Δt^l): the longest of several free flights is
+    longer on average, so the mean amplitude grows with max_trials."""
+    pk = fcc(0.6, n1=3)
+    md = []
+    for n_sh in (1, 8):
+        out = shake(pk, global_shakes=10, method="collision", shake_radius=0.2, max_trials=n_sh, seed=7,
+                    monitor_every=0)
+        assert out.min_gap() >= 0.0
+        md.append(np.mean(np.array(out.meta["shake"]["mean_displacement"], dtype=float)))
+    assert md[1] > 1.2 * md[0]
+
+
+def test_adaptive_size_ratio_1_10(packs):
+    pk = packs["bi"]
+    for method in ("paper", "collision"):
+        out = shake(pk, global_shakes=5, method=method, adaptive=True, seed=8)
+        sh = out.meta["shake"]
+        assert brute_min_gap(out) >= 0.0
+        assert all(0 < r <= sh["skin"] for r in sh["final_shake_radius"])
+        assert sh["final_shake_radius"] != sh["shake_radius"]
