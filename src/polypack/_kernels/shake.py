@@ -166,11 +166,17 @@ def _no_overlap(i, x, y, z, pos, radii, box, start, idx):
     """True if sphere ``i`` centred at ``(x, y, z)`` overlaps none of its listed neighbours."""
     ri = radii[i]
     fac = 1.0 + CONTACT_MARGIN
+    lx = box[0]
+    ly = box[1]
+    lz = box[2]
     for q in range(start[i], start[i + 1]):
         j = idx[q]
-        dx = min_image(pos[j, 0] - x, box[0])
-        dy = min_image(pos[j, 1] - y, box[1])
-        dz = min_image(pos[j, 2] - z, box[2])
+        dx = pos[j, 0] - x
+        dy = pos[j, 1] - y
+        dz = pos[j, 2] - z
+        dx -= lx * np.rint(dx / lx)  # minimum image (|d| < L for wrapped positions)
+        dy -= ly * np.rint(dy / ly)
+        dz -= lz * np.rint(dz / lz)
         sig = ri + radii[j]
         if dx * dx + dy * dy + dz * dz < sig * sig * fac:
             return False
@@ -184,32 +190,33 @@ def _free_flight(i, ux, uy, uz, pos, radii, box, start, idx):
     Smaller positive root of ``|x_i + u t - x_j| = r_i + r_j`` (Eq. (9) of
     000_2cedc098acbd866b.txt) over the listed neighbours, minimum image; ``inf`` if
     no neighbour lies on the path.  A pair already in contact (round-off) that the
-    move would close gives 0.
+    move would close gives 0.  Written without data-dependent branches (half of the
+    neighbours lie behind the direction of motion, an unpredictable branch).
     """
     x = pos[i, 0]
     y = pos[i, 1]
     z = pos[i, 2]
     ri = radii[i]
+    lx = box[0]
+    ly = box[1]
+    lz = box[2]
     best = np.inf
     for q in range(start[i], start[i + 1]):
         j = idx[q]
-        wx = -min_image(pos[j, 0] - x, box[0])
-        wy = -min_image(pos[j, 1] - y, box[1])
-        wz = -min_image(pos[j, 2] - z, box[2])
+        wx = x - pos[j, 0]
+        wy = y - pos[j, 1]
+        wz = z - pos[j, 2]
+        wx -= lx * np.rint(wx / lx)  # minimum image (|w| < L for wrapped positions)
+        wy -= ly * np.rint(wy / ly)
+        wz -= lz * np.rint(wz / lz)
         b = ux * wx + uy * wy + uz * wz
-        if b >= 0.0:
-            continue  # moving away from j (or tangent)
         sig = ri + radii[j]
         c = wx * wx + wy * wy + wz * wz - sig * sig
-        if c <= 0.0:
-            return 0.0
         disc = b * b - c
-        if disc < 0.0:
-            continue
-        t = c / (-b + np.sqrt(disc))  # stable form of the smaller root
-        if t < best:
-            best = t
-    return best
+        t = c / (-b + np.sqrt(max(disc, 0.0)))  # stable form of the smaller root
+        t = t if (b < 0.0 and disc >= 0.0) else np.inf  # approaching and hitting
+        best = min(best, t)
+    return max(best, 0.0)
 
 
 # ------------------------------------------------------------------ sweeps
