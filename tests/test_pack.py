@@ -82,7 +82,7 @@ def test_next_event_agrees_with_brute_force_oracle():
             t_ref, i_ref, j_ref = edmd.next_event_brute(x, v, g, box, t)
             if not t_ref < t_stop:
                 break
-            params = np.array([t_stop, 1.0, 1e12, 1e9, 1.3 * t_stop, 0.3, 1e9, 0.0])
+            params = np.array([t_stop, 1.0, 1e12, 1e9, t_stop, 0.3, 1e9, 0.0, 0.3])
             hist = np.zeros((4, 3))
             edmd.run_chunk(x, v, g, box, state, params, hist)
             assert state[0] == pytest.approx(t_ref, rel=1e-9, abs=1e-12), (trial, step)
@@ -266,3 +266,37 @@ def test_error_below_continuation_fraction():
     pk = pp.pack(np.ones(100), 0.4, seed=1)
     with pytest.raises(pp.InvalidInputError, match="below"):
         pp.pack(pk, 0.3)
+
+
+def test_time_budget_and_interrupt(monkeypatch):
+    pk = pp.pack(np.ones(2000), "jammed", seed=1, max_seconds=0.3, chunk_seconds=0.05)
+    assert pk.meta["status"] == "time_budget"
+    assert pk.min_gap() >= 0.0
+
+    real = edmd.run_chunk
+    calls = {"n": 0}
+
+    def interrupting(*args):
+        calls["n"] += 1
+        out = real(*args)
+        if calls["n"] == 2:
+            raise KeyboardInterrupt
+        return out
+
+    monkeypatch.setattr(edmd, "run_chunk", interrupting)
+    pk = pp.pack(np.ones(300), 0.6, seed=1, chunk_seconds=0.01)
+    assert pk.meta["status"] == "interrupted"
+    assert pk.volume_fraction < 0.6
+    assert pk.min_gap() >= 0.0
+
+
+def test_too_few_spheres_to_jam():
+    with pytest.raises(pp.InfeasibleError):
+        pp.pack(np.ones(3), "jammed", seed=1)
+
+
+def test_overlapping_start_rejected():
+    pos = np.array([[1.0, 1.0, 1.0], [1.5, 1.0, 1.0], [5.0, 5.0, 5.0]])
+    start = pp.Packing(pos, np.full(3, 0.5), 10.0)
+    with pytest.raises(pp.OverlapError):
+        pp.pack(start, 0.1)

@@ -152,27 +152,32 @@ def _choose_ncell(box, n, reach_small):
 
 
 @njit(cache=True)
-def build_lists(x, g, box, t, c, slack):
-    """Neighbour lists of shell-overlap pairs ``d_ij <= (g_i + g_j)(t + c)``, both directions.
+def build_lists(x, rho, box, level, nlev, pad):
+    """Neighbour lists of shell-overlap pairs ``d_ij <= rho_i + rho_j``, both directions.
 
-    Stored as slabs: sphere ``i`` owns ``nbr[off[i] : off[i] + cap_i]`` of which the
-    first ``nn[i]`` are used; the capacity ``cap_i = slack * count_i + 8`` leaves
-    room for local rebuilds.
+    Stored as slabs: sphere ``i`` owns ``nbr[off[i] : off[i+1]]`` of which the first
+    ``nn[i]`` are used; the capacity ``2 max(count_i, mean count of its size level)
+    + pad`` leaves room for the list to grow in local rebuilds.
     """
     n = x.shape[0]
-    a = t + c
-    gs = np.sort(g)
-    reach_small = 2.0 * a * gs[n // 2]
+    rs = np.sort(rho)
+    reach_small = 2.0 * rs[n // 2]
     nc = _choose_ncell(box, n, reach_small)
-    pi, pj, _ = pairs_within(x, g, box, a, 0.0, nc)
+    pi, pj, _ = pairs_within(x, rho, box, 1.0, 0.0, nc)
     m = pi.shape[0]
     cnt = np.zeros(n, np.int64)
     for k in range(m):
         cnt[pi[k]] += 1
         cnt[pj[k]] += 1
+    lsum = np.zeros(nlev)
+    lnum = np.zeros(nlev)
+    for i in range(n):
+        lsum[level[i]] += cnt[i]
+        lnum[level[i]] += 1.0
     off = np.zeros(n + 1, np.int64)
     for i in range(n):
-        off[i + 1] = off[i] + int(slack * cnt[i]) + 8
+        mean_l = lsum[level[i]] / max(lnum[level[i]], 1.0)
+        off[i + 1] = off[i] + int(2.0 * max(cnt[i], mean_l)) + pad
     nbr = np.empty(off[n], np.int64)
     nn = np.zeros(n, np.int64)
     for k in range(m):
@@ -247,7 +252,7 @@ def _cell_index(p0, p1, p2, box, nc, lv):
 
 
 @njit(cache=True)
-def _grid_build(xb, level, box, gmax_lv, nlev, reach_t, n):
+def _grid_build(xb, level, box, rho_max_lv, nlev, n):
     """One cell grid of shell centres per size level (multi-level grid, O(N) for any size ratio)."""
     vol = box[0] * box[1] * box[2]
     counts = np.zeros(nlev, np.int64)
@@ -259,7 +264,7 @@ def _grid_build(xb, level, box, gmax_lv, nlev, reach_t, n):
         if counts[lv] == 0:
             coff[lv + 1] = coff[lv] + 1
             continue
-        h = max(gmax_lv[lv] * reach_t, (vol / (2.0 * counts[lv])) ** (1.0 / 3.0))
+        h = max(2.0 * rho_max_lv[lv], (vol / (2.0 * counts[lv])) ** (1.0 / 3.0))
         for k in range(3):
             nc[lv, k] = max(1, int(math.floor(box[k] / h)))
         while nc[lv, 0] * nc[lv, 1] * nc[lv, 2] > 4 * counts[lv] + 27:
@@ -305,7 +310,7 @@ def _grid_move(i, ci_new, head, nxt, prv, cell):
 
 
 @njit(cache=True)
-def _local_rebuild(i, t, c, x, g, box, xb, rho, off, nn, nbr, level, nlev, gmax_lv, nc, coff, head, nxt, prv,
+def _local_rebuild(i, rho_new, x, box, xb, rho, off, nn, nbr, level, nlev, rho_max_lv, nc, coff, head, nxt, prv,
                    cell):
     """New shell for sphere ``i`` at its current position; symmetric list update.
 
@@ -324,47 +329,58 @@ def _local_rebuild(i, t, c, x, g, box, xb, rho, off, nn, nbr, level, nlev, gmax_
     nn[i] = 0
     for k in range(3):
         xb[i, k] = x[i, k]
-    rho[i] = g[i] * (t + c)
+    rho[i] = rho_new
     lv_i = level[i]
+    if rho_new > rho_max_lv[lv_i]:
+        rho_max_lv[lv_i] = rho_new
     _grid_move(i, coff[lv_i] + _cell_index(xb[i, 0], xb[i, 1], xb[i, 2], box, nc, lv_i), head, nxt, prv, cell)
     ok = True
     cap_i = off[i + 1] - off[i]
-    rx = np.empty(3, np.int64)
-    cx = np.empty(3, np.int64)
+    xi0 = xb[i, 0]
+    xi1 = xb[i, 1]
+    xi2 = xb[i, 2]
+    ri = rho[i]
     for lv in range(nlev):
-        reach = rho[i] + gmax_lv[lv] * (t + c)
-        full = False
-        for k in range(3):
-            ncl = nc[lv, k]
-            r = int(math.ceil(reach / (box[k] / ncl)))
-            if 2 * r + 1 >= ncl:
-                rx[k] = -1  # whole axis
-            else:
-                rx[k] = r
-            y = xb[i, k] - box[k] * math.floor(xb[i, k] / box[k])
-            ck = int(y / box[k] * ncl)
-            if ck >= ncl:
-                ck = ncl - 1
-            cx[k] = ck
-        lox = 0 if rx[0] < 0 else -rx[0]
-        hix = nc[lv, 0] - 1 if rx[0] < 0 else rx[0]
-        loy = 0 if rx[1] < 0 else -rx[1]
-        hiy = nc[lv, 1] - 1 if rx[1] < 0 else rx[1]
-        loz = 0 if rx[2] < 0 else -rx[2]
-        hiz = nc[lv, 2] - 1 if rx[2] < 0 else rx[2]
-        for ox in range(lox, hix + 1):
-            a0 = ox if rx[0] < 0 else (cx[0] + ox) % nc[lv, 0]
-            for oy in range(loy, hiy + 1):
-                a1 = oy if rx[1] < 0 else (cx[1] + oy) % nc[lv, 1]
-                for oz in range(loz, hiz + 1):
-                    a2 = oz if rx[2] < 0 else (cx[2] + oz) % nc[lv, 2]
-                    j = head[coff[lv] + (a0 * nc[lv, 1] + a1) * nc[lv, 2] + a2]
+        reach = ri + rho_max_lv[lv]
+        n0 = nc[lv, 0]
+        n1 = nc[lv, 1]
+        n2 = nc[lv, 2]
+        r0 = int(math.ceil(reach / (box[0] / n0)))
+        r1 = int(math.ceil(reach / (box[1] / n1)))
+        r2 = int(math.ceil(reach / (box[2] / n2)))
+        full0 = 2 * r0 + 1 >= n0
+        full1 = 2 * r1 + 1 >= n1
+        full2 = 2 * r2 + 1 >= n2
+        c0 = _axis_cell(xi0, box[0], n0)
+        c1 = _axis_cell(xi1, box[1], n1)
+        c2 = _axis_cell(xi2, box[2], n2)
+        lo0 = 0 if full0 else c0 - r0 + n0
+        hi0 = n0 - 1 if full0 else c0 + r0 + n0
+        lo1 = 0 if full1 else c1 - r1 + n1
+        hi1 = n1 - 1 if full1 else c1 + r1 + n1
+        lo2 = 0 if full2 else c2 - r2 + n2
+        hi2 = n2 - 1 if full2 else c2 + r2 + n2
+        base = coff[lv]
+        for q0 in range(lo0, hi0 + 1):
+            a0 = q0 - n0 if q0 >= n0 else q0
+            if a0 >= n0:
+                a0 -= n0
+            for q1 in range(lo1, hi1 + 1):
+                a1 = q1 - n1 if q1 >= n1 else q1
+                if a1 >= n1:
+                    a1 -= n1
+                row = base + (a0 * n1 + a1) * n2
+                for q2 in range(lo2, hi2 + 1):
+                    a2 = q2 - n2 if q2 >= n2 else q2
+                    if a2 >= n2:
+                        a2 -= n2
+                    j = head[row + a2]
                     while j >= 0:
                         if j != i:
-                            dx = min_image(xb[j, 0] - xb[i, 0], box[0])
-                            dy = min_image(xb[j, 1] - xb[i, 1], box[1])
-                            dz = min_image(xb[j, 2] - xb[i, 2], box[2])
-                            lim = rho[i] + rho[j]
+                            dx = min_image(xb[j, 0] - xi0, box[0])
+                            dy = min_image(xb[j, 1] - xi1, box[1])
+                            dz = min_image(xb[j, 2] - xi2, box[2])
+                            lim = ri + rho[j]
                             if dx * dx + dy * dy + dz * dz <= lim * lim:
                                 if nn[i] < cap_i and nn[j] < off[j + 1] - off[j]:
                                     nbr[off[i] + nn[i]] = j
@@ -431,20 +447,21 @@ def _thermalise(v):
 
 
 @njit(cache=True)
-def shell_width(t, gmax, box, c_ref_total, alpha):
-    """``c`` such that a shell built at ``t`` has radius ``rho_i = g_i (t + c)``.
+def shell_reach(t, t_ref, alpha, dilute):
+    """``D(t)``: a shell built at ``t`` has radius ``rho_i = min(g_i D, 0.249 L)``.
 
-    ``t + c = max(c_ref_total, (1 + alpha) t)``: the absolute reach stays constant
-    while the spheres are small, then the shell is ``alpha`` times the radius.
-    Capped so that ``rho_i + rho_j < L/2``.  A value <= 0 means the largest sphere
-    is about to exceed a quarter of the box.
+    ``D`` goes linearly from ``(1 + dilute) t_ref`` at ``t = 0`` to
+    ``(1 + alpha) t_ref`` at ``t_ref`` and is at least ``(1 + alpha) t``: wide
+    shells while the spheres are small and fly far between collisions, shells
+    ``alpha`` times the radius when dense.  The cap at a quarter of the box keeps
+    ``rho_i + rho_j < L/2`` (minimum image) and applies per sphere, so the small
+    spheres keep their wide shells when a large one is capped.
     """
-    c = max(c_ref_total - t, alpha * t)
-    lmin = min(box[0], min(box[1], box[2]))
-    cap = 0.249 * lmin / gmax - t
-    if c > cap:
-        c = cap
-    return c
+    u = t / t_ref if t_ref > 0.0 else 1.0
+    if u > 1.0:
+        u = 1.0
+    D = t_ref * ((1.0 + dilute) * (1.0 - u) + (1.0 + alpha) * u)
+    return max(D, (1.0 + alpha) * t)
 
 
 @njit(cache=True)
@@ -485,9 +502,10 @@ def run_chunk(x, v, g, box, state, params, hist):
     state : (8,) float64, in/out
         ``[t, collisions, events, rebuilds, virial_sum, ke_time_integral,
         local_rebuilds, status]`` (counts accumulate across chunks).
-    params : (8,) float64
+    params : (9,) float64
         ``[t_stop, max_collisions_this_chunk, max_pressure, pressure_window,
-        c_ref_total, alpha, max_events_this_chunk, sync_every]``.
+        t_ref, alpha, max_events_this_chunk, sync_every, dilute]`` (shell widths:
+        :func:`shell_reach`).
     hist : (H, 3) float64
         Output rows ``(t, reduced pressure, window collisions)``, one per window.
 
@@ -519,7 +537,8 @@ def run_chunk(x, v, g, box, state, params, hist):
     max_coll = int(params[1])
     p_max = params[2]
     window = int(params[3])
-    c_ref_total = params[4]
+    t_ref = params[4]
+    dilute = params[8]
     alpha = params[5]
     max_events = int(params[6])
     sync_every = int(params[7])
@@ -554,9 +573,10 @@ def run_chunk(x, v, g, box, state, params, hist):
     off = np.zeros(n + 1, np.int64)
     nn = np.zeros(n, np.int64)
     nbr = np.zeros(0, np.int64)
-    c = 0.0
-    slack = 1.6
-    nc, coff, head, nxt, prv, cell = _grid_build(x, level, box, gmax_lv, nlev, 1.0, n)
+    pad = 8
+    rho_cap = 0.249 * min(box[0], min(box[1], box[2]))
+    rho_max_lv = np.zeros(nlev)
+    nc, coff, head, nxt, prv, cell = _grid_build(x, level, box, gmax_lv, nlev, n)
 
     while True:
         if need_rebuild or need_sync:
@@ -569,16 +589,20 @@ def run_chunk(x, v, g, box, state, params, hist):
             since_sync = 0
             if need_rebuild:
                 _wrap(x, box)
-                c = shell_width(t, gmax, box, c_ref_total, alpha)
-                if c <= 1e-9 * max(t, 1e-300):
+                if gmax * t >= rho_cap * (1.0 - 1e-9):
                     status = BOX_LIMIT
                     break
+                D = shell_reach(t, t_ref, alpha, dilute)
+                for lv in range(nlev):
+                    rho_max_lv[lv] = 0.0
                 for i in range(n):
                     for k in range(3):
                         xb[i, k] = x[i, k]
-                    rho[i] = g[i] * (t + c)
-                off, nn, nbr = build_lists(x, g, box, t, c, slack)
-                nc, coff, head, nxt, prv, cell = _grid_build(xb, level, box, gmax_lv, nlev, t + c, n)
+                    rho[i] = min(g[i] * D, rho_cap)
+                    if rho[i] > rho_max_lv[level[i]]:
+                        rho_max_lv[level[i]] = rho[i]
+                off, nn, nbr = build_lists(x, rho, box, level, nlev, pad)
+                nc, coff, head, nxt, prv, cell = _grid_build(xb, level, box, rho_max_lv, nlev, n)
                 state[3] += 1
             for i in range(n):
                 cnt[i] = 0
@@ -612,15 +636,16 @@ def run_chunk(x, v, g, box, state, params, hist):
         if j < 0:
             # shell exit: new shell and neighbour list for sphere i only
             _predict(i, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)  # sync i
-            c = shell_width(t, gmax, box, c_ref_total, alpha)
-            if c <= 1e-9 * max(t, 1e-300):
+            if g[i] * t >= rho_cap * (1.0 - 1e-9):
                 status = BOX_LIMIT
                 break
-            ok = _local_rebuild(i, t, c, x, g, box, xb, rho, off, nn, nbr, level, nlev, gmax_lv, nc, coff,
+            rho_new = min(g[i] * shell_reach(t, t_ref, alpha, dilute), rho_cap)
+            ok = _local_rebuild(i, rho_new, x, box, xb, rho, off, nn, nbr, level, nlev, rho_max_lv, nc, coff,
                                 head, nxt, prv, cell)
             state[6] += 1
             if not ok:
-                slack *= 1.5
+                pad = min(2 * pad, 1024)
+                state[3] += 0  # overflow: global rebuild with more room
                 need_rebuild = True
                 continue
             _predict(i, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
@@ -739,7 +764,7 @@ def warmup():
     v = rng.normal(size=(n, 3))
     g = np.full(n, 0.01)
     state = np.zeros(8)
-    params = np.array([50.0, 100.0, 1e6, 16.0, 60.0, 0.3, 1e6, 0.0])
+    params = np.array([50.0, 100.0, 1e6, 16.0, 50.0, 0.3, 1e6, 0.0, 0.5])
     hist = np.zeros((16, 3))
     run_chunk(x, v, g, box, state, params, hist)
     next_event_brute(x, v, g, box, state[0])

@@ -27,7 +27,7 @@ _DEFAULTS = dict(
     max_pressure=1e6,
     pressure_window=None,
     skin=0.25,
-    dilute_skin=0.2,
+    dilute_skin=0.25,
     chunk_seconds=0.5,
     jammed_reference_fraction=0.5,
     max_events=None,
@@ -142,7 +142,7 @@ def pack(
         the reduced pressure ``Z = PV/(NkT)``, default 1e6), ``pressure_window``
         (collisions per pressure estimate, default ``N``), ``skin`` (neighbour shell
         as a fraction of the radius, default 0.25), ``dilute_skin`` (shell as a fraction
-        of the radius at the target while the spheres are small, default 0.2), ``chunk_seconds`` (0.5),
+        of the radius at the target while the spheres are small, default 0.25), ``chunk_seconds`` (0.5),
         ``jammed_reference_fraction`` (0.5), ``max_events``, ``sync_every`` (collisions
         between full synchronisations with kinetic-energy reset, default ``4N``).
 
@@ -233,6 +233,12 @@ def pack(
         x = np.array(start.positions, dtype=np.float64) / mean_r
         t0 = t_unit
         phi0 = start.volume_fraction
+        gap0, pair0 = _min_gap(start.positions, start.radii, start.box)
+        if gap0 < -1e-9:
+            raise OverlapError(
+                f"the Packing to continue from has overlapping spheres {pair0[0]} and {pair0[1]} "
+                f"(relative gap {gap0:.3e}); start from a non-overlapping pack"
+            )
         if target is not None and target < phi0 * (1 - 1e-12):
             raise InvalidInputError(
                 f"volume_fraction={target}: below the fraction {phi0:.6g} of the Packing to continue from"
@@ -252,7 +258,7 @@ def pack(
         return vol_unit * (t / t_unit) ** 3 / box_vol
 
     # largest admissible time: the largest diameter must stay below half the box
-    t_cap = 0.2499 * float(box.min()) / float(g.max())
+    t_cap = 0.245 * float(box.min()) / float(g.max())
     if target is not None:
         t_target = t_unit * (target * box_vol / vol_unit) ** (1.0 / 3.0)
         if t_target > t_cap:
@@ -293,7 +299,7 @@ def pack(
                     status = "event_budget"
                     break
             params = np.array(
-                [t_stop, float(budget), p_max, float(window), (1.0 + dilute_skin) * t_ref, skin, float(ev_budget), float(opt["sync_every"] or 0)]
+                [t_stop, float(budget), p_max, float(window), t_ref, skin, float(ev_budget), float(opt["sync_every"] or 0), dilute_skin]
             )
             hist = np.zeros((budget // max(window, 1) + 2, 3))
             c0 = state[1]
@@ -319,6 +325,8 @@ def pack(
             code = int(code)
             if code == 1:
                 status = "target" if target is not None else "jammed"
+                if target is None:
+                    code = 3  # reached the box limit without jamming
                 break
             if code == 2:
                 status = "jammed"
@@ -387,7 +395,7 @@ def pack(
         "run_time": run_time,
         "collisions_per_second": collisions / run_time if run_time > 0 else 0.0,
         "reduced_pressure": p_last,
-        "pressure_history": [[float(a), float(b)] for a, b in hist_rows],
+        "pressure_history": _thin(hist_rows, 1000),
         "jamming_estimate": jam,
         "growth_rate": gamma,
         "seed": seed_record(ss),
@@ -401,6 +409,14 @@ def pack(
     meta["history"] = history
     out = Packing(pos, radii, box_out, species=species, meta=meta)
     return out
+
+
+def _thin(rows, m):
+    """At most about ``m`` rows, evenly spaced, always keeping the last one."""
+    if len(rows) > m:
+        step = int(math.ceil(len(rows) / m))
+        rows = rows[::-1][::step][::-1]
+    return [[float(a), float(b)] for a, b in rows]
 
 
 def _min_gap(pos, radii, box):
