@@ -27,6 +27,35 @@ def test_nearest_surface_is_exact(ratio, n, L):
     assert np.allclose(nearest_surface_distance(pk, pts + L), brute(pk, pts))
 
 
+@pytest.mark.parametrize("nbig, L", [(8, 20.0), (3, 12.0), (30, 25.0)])
+def test_nearest_surface_exact_with_even_cell_grids(nbig, L):
+    # few large spheres: their class grid has an even number of cells per axis (2 or 4),
+    # where the cell at offset -nc/2 is nearer through the other side of the box
+    rng = np.random.default_rng(nbig)
+    rad = np.concatenate([np.full(nbig, 0.12 * L), np.full(300, 0.0125 * L)])
+    pk = pp.Packing(rng.random((rad.size, 3)) * L, rad, L)
+    pts = rng.random((5000, 3)) * L
+    assert np.allclose(nearest_surface_distance(pk, pts), brute(pk, pts), rtol=0, atol=1e-12)
+
+
+def test_nearest_surface_kernel_any_grid():
+    from polypack._kernels.analysis import nearest_surface
+
+    rng = np.random.default_rng(5)
+    L = 10.0
+    box = np.full(3, L)
+    for _ in range(30):
+        n = int(rng.integers(1, 6))
+        pos = rng.random((n, 3)) * L
+        rad = rng.uniform(0.2, 2.4, n)
+        pts = rng.random((300, 3)) * L
+        pk = pp.Packing(pos, rad, L)
+        for nc in (1, 2, 3, 4):
+            got = nearest_surface(pts, pk.positions, rad, box, np.full((1, 3), nc, np.int64),
+                                  np.array([rad.max()]), np.zeros(n, np.int64))
+            assert np.allclose(got, brute(pk, pts), rtol=0, atol=1e-12), nc
+
+
 def _boolean(rng, counts, radii, L):
     pos = rng.random((sum(counts), 3)) * L
     rad = np.concatenate([np.full(c, r) for c, r in zip(counts, radii)])

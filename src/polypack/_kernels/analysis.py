@@ -221,13 +221,28 @@ def window_counts(pos, radii, species, box, nspecies, window, ncell):
 
 
 @njit(cache=True)
-def _axis_gap(o, f, cl):
-    """Distance along one axis from a point at offset ``f`` in its cell to the cell ``o`` away."""
+def _axis_gap_one(o, f, cl):
     if o > 0:
         return o * cl - f
     if o < 0:
         return (-o - 1) * cl + f
     return 0.0
+
+
+@njit(cache=True)
+def _axis_gap(o, f, cl, nc):
+    """Periodic distance along one axis from a point at offset ``f`` in its cell to the cell ``o`` away.
+
+    The cell ``o`` away is also the cell ``o -/+ nc`` away on the other side of the
+    box; the nearer of the two is the gap (with an even number of cells the cell at
+    ``o = -nc/2`` can be nearer through the other side).
+    """
+    g = _axis_gap_one(o, f, cl)
+    if o < 0:
+        g = min(g, _axis_gap_one(o + nc, f, cl))
+    elif o > 0:
+        g = min(g, _axis_gap_one(o - nc, f, cl))
+    return g
 
 
 @njit(cache=True)
@@ -334,15 +349,15 @@ def nearest_surface(points, pos, radii, box, ncell, r_max_radius, cls):
                 any_close = False
                 lim = best + rmax
                 for ox in range(lx, hx + 1):
-                    gx = _axis_gap(ox, fx, cl0)
+                    gx = _axis_gap(ox, fx, cl0, nc0)
                     onx = ox == -shell or ox == shell
                     for oy in range(ly, hy + 1):
-                        gy = _axis_gap(oy, fy, cl1)
+                        gy = _axis_gap(oy, fy, cl1, nc1)
                         ony = oy == -shell or oy == shell
                         for oz in range(lz, hz + 1):
                             if not (onx or ony or oz == -shell or oz == shell):
                                 continue
-                            gz = _axis_gap(oz, fz, cl2)
+                            gz = _axis_gap(oz, fz, cl2, nc2)
                             g2 = gx * gx + gy * gy + gz * gz
                             if lim <= 0.0 or g2 >= lim * lim:
                                 continue
