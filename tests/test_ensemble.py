@@ -336,3 +336,16 @@ def test_killed_process_resumes_to_the_same_results(serial_run, tmp_path):
     assert res.skipped == done and sorted(res.computed + done) == [0, 1, 2]
     assert not list((o / "realizations").glob(".*.tmp"))
     assert_same(results(out, 3), results(o, 3))
+
+
+def test_cli_scheduler_address_gives_identical_results(serial_run, tmp_path):
+    distributed = pytest.importorskip("dask.distributed")
+    from polypack.cli import main
+    from polypack.study import Study
+
+    out, _ = serial_run
+    f = tmp_path / "tiny.toml"
+    f.write_text(Study.from_dict(tiny()).to_toml())
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster:
+        main(["run", str(f), "--out", str(tmp_path / "o"), "--scheduler", cluster.scheduler_address])
+    assert_same(results(out, 3), results(tmp_path / "o", 3))
