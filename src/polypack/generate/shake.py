@@ -153,8 +153,9 @@ def shake(
         Target acceptance of the Metropolis adaptation (default 0.4).
     skin : float, optional
         Relative Verlet skin ``s`` (pairs with ``d <= (1 + s)(r_i + r_j)`` are
-        listed); default ``max(0.3, 4 max R_sh)``, capped by the box.  Affects speed
-        only.
+        listed); default ``max(0.5, 4 max R_sh)``, capped by the box, and widened
+        while running if the list has to be rebuilt often.  Affects speed only: the
+        overlap test is exact for any skin, so results do not depend on it.
     monitor_every : int, optional
         Record the contact values ``g_km(a_k + a_m)+`` (via
         :func:`polypack.analysis.contact_value`) every this many global shakes;
@@ -257,7 +258,7 @@ def shake(
     s_cap = float(box.min()) / (4.0 * float(radii.max())) - 1.0
     rsh_top = float(rsh.max())
     if skin is None:
-        s = min(max(0.3, 4.0 * rsh_top), s_cap)
+        s = min(max(0.5, 4.0 * rsh_top), s_cap)
     else:
         s = float(skin)
         if not (np.isfinite(s) and s > 0):
@@ -307,16 +308,15 @@ def shake(
 
     bar = progress_bar(total=global_shakes, desc=f"shake ({method})", progress=progress, unit="shake")
     m = 0
+    window_sweeps = window_rebuilds = 0
     try:
         while m < global_shakes:
             adapting = bool(adaptive) and m + 1 <= adapt_shakes
             per_shake = adapting or callback is not None or bool(monitor_every)
             if per_shake:
                 chunk = 1
-            elif not bar.disable:
-                chunk = min(global_shakes - m, max(1, 200_000 // packing.n))
             else:
-                chunk = global_shakes - m
+                chunk = min(global_shakes - m, 20)
             stats = np.zeros((chunk, ns, kern.N_STATS))
             t0 = time.perf_counter()
             start, idx, nreb = kern.shake_sweeps(
@@ -325,6 +325,21 @@ def shake(
             )
             kernel_time += time.perf_counter() - t0
             rebuilds += int(nreb)
+            window_sweeps += chunk
+            window_rebuilds += int(nreb)
+            if window_sweeps >= 20:
+                frequent = window_rebuilds > 0.1 * window_sweeps
+                window_sweeps = window_rebuilds = 0
+            else:
+                frequent = False
+            if skin is None and frequent and s < s_cap:
+                # frequent rebuilds (large or many-sized windows): widen the skin
+                s = min(s_cap, 1.4 * s)
+                reach_small = 2.0 * (1.0 + s) * float(np.percentile(radii, 10))
+                ncell = np.ascontiguousarray(choose_cells(box, packing.n, reach_small), dtype=np.int64)
+                start, idx = kern.build_list(pos, radii, box, s, ncell)
+                since[:] = 0.0
+                rebuilds += 1
             for st in stats:
                 m += 1
                 total_trials += float(st[:, kern.ST_TRIALS].sum())
