@@ -277,7 +277,9 @@ def shake(
     since = np.zeros_like(pos)
     net = np.zeros_like(pos)
     rng = ss.generate_state(4, np.uint64)
+    t_build = time.perf_counter()
     start, idx = kern.build_list(pos, radii, box, s, ncell)
+    t_build = time.perf_counter() - t_build
     rebuilds = 0
 
     counts = np.bincount(species, minlength=ns).astype(np.float64)
@@ -309,6 +311,7 @@ def shake(
     bar = progress_bar(total=global_shakes, desc=f"shake ({method})", progress=progress, unit="shake")
     m = 0
     window_sweeps = window_rebuilds = 0
+    window_time = 0.0
     try:
         while m < global_shakes:
             adapting = bool(adaptive) and m + 1 <= adapt_shakes
@@ -327,9 +330,12 @@ def shake(
             rebuilds += int(nreb)
             window_sweeps += chunk
             window_rebuilds += int(nreb)
+            window_time += time.perf_counter() - t0
             if window_sweeps >= 20:
-                frequent = window_rebuilds > 0.1 * window_sweeps
+                # rebuilds take more than ~1/4 of the time: a wider skin pays off
+                frequent = window_rebuilds * t_build > 0.25 * window_time
                 window_sweeps = window_rebuilds = 0
+                window_time = 0.0
             else:
                 frequent = False
             if skin is None and frequent and s < s_cap:
