@@ -92,3 +92,25 @@ def test_plot():
     assert len(ax.lines) == 4
     with pytest.raises(InvalidInputError, match="model"):
         th.plot(0.5, 0.4, models=("nope",))
+
+
+@pytest.mark.parametrize("eta", [0.1, 0.3, 0.5])
+def test_contact_values_satisfy_the_virial_equations_of_state(eta):
+    # Z = 1 + 4 eta g(sigma+): Carnahan-Starling Z = (1 + eta + eta^2 - eta^3)/(1 - eta)^3,
+    # Percus-Yevick virial route Z_v = (1 + 2 eta + 3 eta^2)/(1 - eta)^2
+    z_cs = (1 + eta + eta**2 - eta**3) / (1 - eta) ** 3
+    assert 1 + 4 * eta * th.carnahan_starling_contact(eta) == pytest.approx(z_cs, rel=1e-12)
+    z_py = (1 + 2 * eta + 3 * eta**2) / (1 - eta) ** 2
+    assert 1 + 4 * eta * th.percus_yevick_contact(eta) == pytest.approx(z_py, rel=1e-12)
+
+
+def test_mixture_contact_values_match_lebowitz_in_diameters():
+    # Lebowitz (1964) PY mixture, diameters s_i, xi_n = pi/6 sum rho_k s_k^n:
+    # g_ij = 1/(1 - xi3) + 3 xi2 s_i s_j / ((s_i + s_j)(1 - xi3)^2)
+    a = np.array([1.0, 0.313, 0.138])
+    c = np.array([0.35, 0.15, 0.1])
+    s = 2 * a
+    rho = c / (np.pi / 6 * s**3)
+    xi2, xi3 = np.pi / 6 * np.sum(rho * s**2), np.pi / 6 * np.sum(rho * s**3)
+    ref = 1 / (1 - xi3) + 3 * xi2 * np.outer(s, s) / ((s[:, None] + s[None]) * (1 - xi3) ** 2)
+    assert np.allclose(th.percus_yevick_mixture_contact(a, c), ref, rtol=1e-12)
