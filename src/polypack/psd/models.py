@@ -386,6 +386,13 @@ def _check_count(name, n):
     return int(n)
 
 
+def _uniform_draws(n, seed, method):
+    """``n`` probabilities for inverse sampling: random (seeded) or the midpoints ``(i + 1/2)/n``."""
+    n = _check_count("n", n)
+    method = _check_method(method)
+    return (np.arange(n) + 0.5) / n if method == "quantiles" else rng_from(seed).random(n)
+
+
 def _inside(d, lo, hi):
     return (d >= lo) & (d <= hi)
 
@@ -438,20 +445,19 @@ class CumulativeBeta(SizeDistribution):
         return self.d_min + (self.d_max - self.d_min) * special.betaincinv(self.a, self.b, p)
 
 
-class UniformVolume(SizeDistribution):
-    """Distribution uniform by volume fraction, Eqs. (2)-(4) of 001_ad5bae0acea940c4.txt.
+def _power_integral(lo, hi, e):
+    """``∫ d**e dd`` on ``[lo, hi]``."""
+    e = float(e)
+    return math.log(hi / lo) if abs(e + 1) < 1e-12 else (hi ** (e + 1) - lo ** (e + 1)) / (e + 1)
 
-    Every size interval of equal width holds the same particle volume: ``h(d)`` is the
-    straight line from ``(d_min, 0)`` to ``(d_max, 1)`` and ``f(d) ∝ d**(-dim)``. The
-    partition function and its inverse are closed forms; for ``dim=2`` they are exactly
-    Eqs. (3) and (4) of the seed (whose Eq. (2) should read ``1/d**2`` for the stated
-    normalisation), for ``dim=3``::
 
-        F(d) = (d_min**-2 - d**-2) / (d_min**-2 - d_max**-2)
-        F^{-1}(y) = (d_min**-2 - y (d_min**-2 - d_max**-2))**(-1/2)
+class _UniformInBasis(SizeDistribution):
+    """Law uniform in ``d`` on ``[d_min, d_max]`` in its basis (shared by the two uniform models).
+
+    Moments are closed forms on both sides: ``E_basis[d**k] = ∫ d**k dd / (d_max - d_min)`` and,
+    weighting by ``d**w`` (``w = -dim`` from volume to number, ``+dim`` the other way),
+    ``E_other[d**k] = ∫ d**(k+w) dd / ∫ d**w dd``.
     """
-
-    name = "uniform_volume"
 
     def __init__(self, d_min=None, d_max=None, span=None, dim=3):
         lo, hi = _bounds_from(span, d_min, d_max)
@@ -467,6 +473,29 @@ class UniformVolume(SizeDistribution):
     def _ppf(self, p):
         return self.d_min + (self.d_max - self.d_min) * np.asarray(p, float)
 
+    def moment(self, k, basis="number"):
+        basis = _check_basis(basis)
+        lo, hi = self.d_min, self.d_max
+        if basis == self.basis:
+            return _power_integral(lo, hi, k) / (hi - lo)
+        return _power_integral(lo, hi, float(k) + self._w) / _power_integral(lo, hi, self._w)
+
+
+class UniformVolume(_UniformInBasis):
+    """Distribution uniform by volume fraction, Eqs. (2)-(4) of 001_ad5bae0acea940c4.txt.
+
+    Every size interval of equal width holds the same particle volume: ``h(d)`` is the
+    straight line from ``(d_min, 0)`` to ``(d_max, 1)`` and ``f(d) ∝ d**(-dim)``. The
+    partition function and its inverse are closed forms; for ``dim=2`` they are exactly
+    Eqs. (3) and (4) of the seed (whose Eq. (2) should read ``1/d**2`` for the stated
+    normalisation), for ``dim=3``::
+
+        F(d) = (d_min**-2 - d**-2) / (d_min**-2 - d_max**-2)
+        F^{-1}(y) = (d_min**-2 - y (d_min**-2 - d_max**-2))**(-1/2)
+    """
+
+    name = "uniform_volume"
+
     # exact number side
     def number_cdf(self, d):
         return uv_cdf(np.clip(np.asarray(d, float), self.d_min, self.d_max), self.d_min, self.d_max, self.dim)
@@ -480,22 +509,8 @@ class UniformVolume(SizeDistribution):
     def number_quantile(self, p):
         return uv_ppf(_check_prob(p), self.d_min, self.d_max, self.dim)
 
-    def moment(self, k, basis="number"):
-        basis = _check_basis(basis)
-        lo, hi = self.d_min, self.d_max
-
-        def integral(e):  # ∫ d**e dd on [lo, hi]
-            return math.log(hi / lo) if abs(e + 1) < 1e-12 else (hi ** (e + 1) - lo ** (e + 1)) / (e + 1)
-
-        if basis == "volume":
-            return integral(float(k)) / (hi - lo)
-        return integral(float(k) - self.dim) / integral(-float(self.dim))
-
     def sample_diameters(self, n, seed=None, method="random"):
-        n = _check_count("n", n)
-        method = _check_method(method)
-        u = (np.arange(n) + 0.5) / n if method == "quantiles" else rng_from(seed).random(n)
-        return uv_ppf(u, self.d_min, self.d_max, self.dim)
+        return uv_ppf(_uniform_draws(n, seed, method), self.d_min, self.d_max, self.dim)
 
 
 def uv_cdf(d, d_min, d_max, dim=3):
@@ -528,7 +543,7 @@ def uv_mean_volume(d_min, d_max, dim=3):
     return (d_max - d_min) * e / (d_max**e - d_min**e)
 
 
-class UniformSize(SizeDistribution):
+class UniformSize(_UniformInBasis):
     """Distribution uniform by size (number density of ``d`` constant on ``[d_min, d_max]``).
 
     Its grading curve is ``h(d) = (d**(dim+1) - d_min**(dim+1)) / (d_max**(dim+1) - d_min**(dim+1))``
@@ -538,20 +553,6 @@ class UniformSize(SizeDistribution):
 
     name = "uniform_size"
     basis = "number"
-
-    def __init__(self, d_min=None, d_max=None, span=None, dim=3):
-        lo, hi = _bounds_from(span, d_min, d_max)
-        super().__init__(lo, hi, dim)
-
-    def _cdf(self, d):
-        return np.clip((np.asarray(d, float) - self.d_min) / (self.d_max - self.d_min), 0.0, 1.0)
-
-    def _pdf(self, d):
-        d = np.asarray(d, float)
-        return np.where(_inside(d, self.d_min, self.d_max), 1.0 / (self.d_max - self.d_min), 0.0)
-
-    def _ppf(self, p):
-        return self.d_min + (self.d_max - self.d_min) * np.asarray(p, float)
 
     def grading(self, d):
         k = self.dim + 1
@@ -567,18 +568,6 @@ class UniformSize(SizeDistribution):
         k = self.dim + 1
         p = _check_prob(p)
         return (self.d_min**k + p * (self.d_max**k - self.d_min**k)) ** (1.0 / k)
-
-    def moment(self, k, basis="number"):
-        basis = _check_basis(basis)
-        lo, hi = self.d_min, self.d_max
-
-        def integral(e):
-            return math.log(hi / lo) if abs(e + 1) < 1e-12 else (hi ** (e + 1) - lo ** (e + 1)) / (e + 1)
-
-        if basis == "number":
-            return integral(float(k)) / (hi - lo)
-        return integral(float(k) + self.dim) / integral(float(self.dim))
-
 
 class LogNormal(SizeDistribution):
     """Truncated log-normal distribution of diameters.
@@ -655,10 +644,7 @@ class LogNormal(SizeDistribution):
         return self._side_ppf("number", _check_prob(p))
 
     def sample_diameters(self, n, seed=None, method="random"):
-        n = _check_count("n", n)
-        method = _check_method(method)
-        u = (np.arange(n) + 0.5) / n if method == "quantiles" else rng_from(seed).random(n)
-        return self._side_ppf("number", u)
+        return self._side_ppf("number", _uniform_draws(n, seed, method))
 
 
 class Normal(SizeDistribution):
@@ -783,6 +769,15 @@ def _bisect(fn, p, lo, hi, iters=200):
     return np.where(at_lo, lo, b)
 
 
+def _mode_components(sizes, spread, dim):
+    """Modes of diameters ``sizes``: floats (monodisperse) or, with ``spread``, truncated
+    log-normal number laws of median ``size`` and log-standard deviation ``spread`` (0 = monodisperse)."""
+    if spread is None:
+        return list(sizes)
+    spreads = np.broadcast_to(np.asarray(spread, float), (len(sizes),))
+    return [Monodisperse(s, dim) if sp == 0 else LogNormal(s, float(sp), dim=dim) for s, sp in zip(sizes, spreads)]
+
+
 class Mixture(SizeDistribution):
     """Multimodal mixture: components (modes) with given **volume** fractions.
 
@@ -831,12 +826,7 @@ class Mixture(SizeDistribution):
         deviation ``spread`` (truncated at ±3 spread).
         """
         sizes = [float(s) for s in np.atleast_1d(sizes)]
-        if spread is None:
-            comps = sizes
-        else:
-            spreads = np.broadcast_to(np.asarray(spread, float), (len(sizes),))
-            comps = [Monodisperse(s, dim) if sp == 0 else LogNormal(s, sp, dim=dim) for s, sp in zip(sizes, spreads)]
-        return cls(comps, volume_fractions, dim=dim)
+        return cls(_mode_components(sizes, spread, dim), volume_fractions, dim=dim)
 
     def params(self):
         return {"model": self.name, "volume_fractions": self.volume_fractions.tolist(),
@@ -955,14 +945,8 @@ class Bimodal(Mixture):
         xi = _finite_positive("volume_ratio", volume_ratio)
         dl = _finite_positive("d_large", d_large)
         self.size_ratio, self.volume_ratio, self.d_large, self.spread = lam, xi, dl, spread
-        sizes = [dl, lam * dl]
         fr = [1.0 / (1.0 + xi), xi / (1.0 + xi)]
-        if spread is None:
-            comps = sizes
-        else:
-            spreads = np.broadcast_to(np.asarray(spread, float), (2,))
-            comps = [Monodisperse(s, dim) if sp == 0 else LogNormal(s, float(sp), dim=dim) for s, sp in zip(sizes, spreads)]
-        super().__init__(comps, fr, dim=dim)
+        super().__init__(_mode_components([dl, lam * dl], spread, dim), fr, dim=dim)
 
     def params(self):
         out = {"model": self.name, "size_ratio": self.size_ratio, "volume_ratio": self.volume_ratio,
