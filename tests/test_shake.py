@@ -325,3 +325,19 @@ def test_result_independent_of_skin(packs):
         b = shake(pk, global_shakes=6, method=method, seed=9, skin=0.25, monitor_every=0)
         assert a.meta["shake"]["rebuilds"] != b.meta["shake"]["rebuilds"] or which == "sc"
         assert np.array_equal(a.positions, b.positions)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_cells_and_verlet_identical(method):
+    """Linked cells and the Verlet list are two exact overlap tests: identical trajectories."""
+    pk = simple_cubic(0.3, n1=6)
+    kw = dict(global_shakes=8, method=method, shake_radius=0.4, seed=21, monitor_every=0)
+    a = shake(pk, neighbours="cells", **kw)
+    b = shake(pk, neighbours="verlet", **kw)
+    assert a.meta["shake"]["final_neighbour_structure"] == "cells"
+    assert b.meta["shake"]["final_neighbour_structure"] == "verlet"
+    assert np.array_equal(a.positions, b.positions)
+    assert a.meta["shake"]["acceptance_rate"] == b.meta["shake"]["acceptance_rate"]
+    assert a.min_gap() >= 0.0
+    with pytest.raises(InvalidInputError, match="neighbours"):
+        shake(pk, global_shakes=1, neighbours="octree")

@@ -219,10 +219,141 @@ def _free_flight(i, ux, uy, uz, pos, radii, box, start, idx):
     return max(best, 0.0)
 
 
+
+# ------------------------------------------------------------- cell links
+@njit(cache=True)
+def _cell_of(x, y, z, box, ncell):
+    cx = int(x / box[0] * ncell[0])
+    cy = int(y / box[1] * ncell[1])
+    cz = int(z / box[2] * ncell[2])
+    if cx >= ncell[0]:
+        cx = ncell[0] - 1
+    if cy >= ncell[1]:
+        cy = ncell[1] - 1
+    if cz >= ncell[2]:
+        cz = ncell[2] - 1
+    return (cx * ncell[1] + cy) * ncell[2] + cz
+
+
+@njit(cache=True)
+def build_links(pos, box, ncell):
+    """Doubly linked cell lists ``(head, nxt, prv, cell)`` of wrapped positions."""
+    n = pos.shape[0]
+    nc = ncell[0] * ncell[1] * ncell[2]
+    head = np.full(nc, -1, np.int64)
+    nxt = np.full(n, -1, np.int64)
+    prv = np.full(n, -1, np.int64)
+    cell = np.empty(n, np.int64)
+    for i in range(n):
+        c = _cell_of(pos[i, 0], pos[i, 1], pos[i, 2], box, ncell)
+        cell[i] = c
+        nxt[i] = head[c]
+        if head[c] >= 0:
+            prv[head[c]] = i
+        head[c] = i
+    return head, nxt, prv, cell
+
+
+@njit(cache=True)
+def _relink(i, c, head, nxt, prv, cell):
+    """Move sphere ``i`` to cell ``c`` (O(1))."""
+    old = cell[i]
+    if old == c:
+        return
+    if prv[i] >= 0:
+        nxt[prv[i]] = nxt[i]
+    else:
+        head[old] = nxt[i]
+    if nxt[i] >= 0:
+        prv[nxt[i]] = prv[i]
+    nxt[i] = head[c]
+    prv[i] = -1
+    if head[c] >= 0:
+        prv[head[c]] = i
+    head[c] = i
+    cell[i] = c
+
+
+@njit(cache=True)
+def _no_overlap_cells(i, x, y, z, pos, radii, box, ncell, head, nxt):
+    """As :func:`_no_overlap`, scanning the 27 cells around ``(x, y, z)`` (cell side >= 2 r_max)."""
+    ri = radii[i]
+    fac = 1.0 + CONTACT_MARGIN
+    lx = box[0]
+    ly = box[1]
+    lz = box[2]
+    c0 = _cell_of(x, y, z, box, ncell)
+    cz0 = c0 % ncell[2]
+    cy0 = (c0 // ncell[2]) % ncell[1]
+    cx0 = c0 // (ncell[1] * ncell[2])
+    for ox in range(-1, 2):
+        cx = (cx0 + ox) % ncell[0]
+        for oy in range(-1, 2):
+            cy = (cy0 + oy) % ncell[1]
+            for oz in range(-1, 2):
+                cz = (cz0 + oz) % ncell[2]
+                j = head[(cx * ncell[1] + cy) * ncell[2] + cz]
+                while j >= 0:
+                    if j != i:
+                        dx = pos[j, 0] - x
+                        dy = pos[j, 1] - y
+                        dz = pos[j, 2] - z
+                        dx -= lx * np.rint(dx / lx)
+                        dy -= ly * np.rint(dy / ly)
+                        dz -= lz * np.rint(dz / lz)
+                        sig = ri + radii[j]
+                        if dx * dx + dy * dy + dz * dz < sig * sig * fac:
+                            return False
+                    j = nxt[j]
+    return True
+
+
+@njit(cache=True)
+def _free_flight_cells(i, ux, uy, uz, pos, radii, box, ncell, head, nxt):
+    """As :func:`_free_flight` over the 27 cells around sphere ``i`` (exact up to the window)."""
+    x = pos[i, 0]
+    y = pos[i, 1]
+    z = pos[i, 2]
+    ri = radii[i]
+    lx = box[0]
+    ly = box[1]
+    lz = box[2]
+    best = np.inf
+    c0 = _cell_of(x, y, z, box, ncell)
+    cz0 = c0 % ncell[2]
+    cy0 = (c0 // ncell[2]) % ncell[1]
+    cx0 = c0 // (ncell[1] * ncell[2])
+    for ox in range(-1, 2):
+        cx = (cx0 + ox) % ncell[0]
+        for oy in range(-1, 2):
+            cy = (cy0 + oy) % ncell[1]
+            for oz in range(-1, 2):
+                cz = (cz0 + oz) % ncell[2]
+                j = head[(cx * ncell[1] + cy) * ncell[2] + cz]
+                while j >= 0:
+                    if j != i:
+                        wx = x - pos[j, 0]
+                        wy = y - pos[j, 1]
+                        wz = z - pos[j, 2]
+                        wx -= lx * np.rint(wx / lx)
+                        wy -= ly * np.rint(wy / ly)
+                        wz -= lz * np.rint(wz / lz)
+                        b = ux * wx + uy * wy + uz * wz
+                        sig = ri + radii[j]
+                        c = wx * wx + wy * wy + wz * wz - sig * sig
+                        disc = b * b - c
+                        t = c / (-b + np.sqrt(max(disc, 0.0)))
+                        t = t if (b < 0.0 and disc >= 0.0) else np.inf
+                        best = min(best, t)
+                    j = nxt[j]
+    return max(best, 0.0)
+
+
 # ------------------------------------------------------------------ sweeps
 @njit(cache=True)
 def shake_sweeps(pos, since, radii, species, box, rsh, start, idx, skin, ncell, method, order,
-                 max_trials, n_sweeps, adapt, adapt_factor, rsh_min, rsh_max, rng, net, stats):
+                 max_trials, n_sweeps, adapt, adapt_factor, rsh_min, rsh_max, rng, net, stats,
+                 use_cells, cgrid, head, nxt, prv, cell):
     """Run ``n_sweeps`` global shakes in place.
 
     Parameters
@@ -255,6 +386,11 @@ def shake_sweeps(pos, since, radii, species, box, rsh, start, idx, skin, ncell, 
         xoshiro256+ state, advanced in place.
     net : (N, 3) float64
         Accumulated (unwrapped) displacement since the start of the run; updated.
+    use_cells : bool
+        Test against linked cell lists (``cgrid`` cells per axis, side at least
+        ``2 r_max`` plus the largest step; ``head, nxt, prv, cell`` from
+        :func:`build_links`, updated) instead of the Verlet list: better for
+        large steps of similar spheres.  Same results either way.
     stats : (n_sweeps, K, 7) float64
         Output: visits, trials, accepted trials, spheres moved, sum of accepted
         ``|dx| / r_i``, sum of the free flight over ``r_i`` (collision/adaptive),
@@ -282,7 +418,7 @@ def shake_sweeps(pos, since, radii, species, box, rsh, start, idx, skin, ncell, 
             dsx = since[i, 0]
             dsy = since[i, 1]
             dsz = since[i, 2]
-            if np.sqrt(dsx * dsx + dsy * dsy + dsz * dsz) + step > skin * ri:
+            if not use_cells and np.sqrt(dsx * dsx + dsy * dsy + dsz * dsz) + step > skin * ri:
                 start, idx = build_list(pos, radii, box, skin, ncell)
                 since[:, :] = 0.0
                 rebuilds += 1
@@ -303,7 +439,10 @@ def shake_sweeps(pos, since, radii, species, box, rsh, start, idx, skin, ncell, 
                 bz = 0.0
                 for trial in range(max_trials[k]):
                     ux, uy, uz = _direction(rng)
-                    f = _free_flight(i, ux, uy, uz, pos, radii, box, start, idx)
+                    if use_cells:
+                        f = _free_flight_cells(i, ux, uy, uz, pos, radii, box, cgrid, head, nxt)
+                    else:
+                        f = _free_flight(i, ux, uy, uz, pos, radii, box, start, idx)
                     if f > bestf:
                         bestf = f
                         bx = ux
@@ -324,7 +463,13 @@ def shake_sweeps(pos, since, radii, species, box, rsh, start, idx, skin, ncell, 
                     zn = _wrap1(z0 + dza, box[2])
                     # short of the first contact by more than round-off: free by construction;
                     # otherwise test exactly
-                    if bestf - amp > 1e-9 * ri or _no_overlap(i, xn, yn, zn, pos, radii, box, start, idx):
+                    if bestf - amp > 1e-9 * ri:
+                        free = True
+                    elif use_cells:
+                        free = _no_overlap_cells(i, xn, yn, zn, pos, radii, box, cgrid, head, nxt)
+                    else:
+                        free = _no_overlap(i, xn, yn, zn, pos, radii, box, start, idx)
+                    if free:
                         pos[i, 0] = xn
                         pos[i, 1] = yn
                         pos[i, 2] = zn
@@ -348,14 +493,22 @@ def shake_sweeps(pos, since, radii, species, box, rsh, start, idx, skin, ncell, 
                     if adapt and trial == 0:
                         if r2 > 1e-24:
                             inv = 1.0 / np.sqrt(r2)
-                            f = _free_flight(i, bx * inv, by * inv, bz * inv, pos, radii, box, start, idx)
+                            if use_cells:
+                                f = _free_flight_cells(i, bx * inv, by * inv, bz * inv, pos, radii, box, cgrid,
+                                                       head, nxt)
+                            else:
+                                f = _free_flight(i, bx * inv, by * inv, bz * inv, pos, radii, box, start, idx)
                         st[ST_FLIGHT] += (f if f < skin * ri else skin * ri) / ri
                         if f > step:
                             st[ST_GROW] += 1.0
                     xn = _wrap1(x0 + dxa, box[0])
                     yn = _wrap1(y0 + dya, box[1])
                     zn = _wrap1(z0 + dza, box[2])
-                    if _no_overlap(i, xn, yn, zn, pos, radii, box, start, idx):
+                    if use_cells:
+                        free = _no_overlap_cells(i, xn, yn, zn, pos, radii, box, cgrid, head, nxt)
+                    else:
+                        free = _no_overlap(i, xn, yn, zn, pos, radii, box, start, idx)
+                    if free:
                         pos[i, 0] = xn
                         pos[i, 1] = yn
                         pos[i, 2] = zn
@@ -375,6 +528,8 @@ def shake_sweeps(pos, since, radii, species, box, rsh, start, idx, skin, ncell, 
                 elif rsh[k] < rsh_min:
                     rsh[k] = rsh_min
             if moved:
+                if use_cells:
+                    _relink(i, _cell_of(pos[i, 0], pos[i, 1], pos[i, 2], box, cgrid), head, nxt, prv, cell)
                 st[ST_MOVED] += 1.0
                 since[i, 0] += dxa
                 since[i, 1] += dya
@@ -415,9 +570,12 @@ def warmup():
     skin = 0.5
     start, idx = build_list(pos, radii, box, skin, ncell)
     rng = np.array([1, 2, 3, 4], dtype=np.uint64)
+    cgrid = np.array([3, 3, 3], np.int64)
     for method in (0, 1, 2):
         for adapt in (False, True):
-            stats = np.zeros((1, 1, N_STATS))
-            shake_sweeps(pos, np.zeros((n, 3)), radii, species, box, np.array([0.1]), start, idx, skin, ncell,
-                         method, method % 2, np.array([3], np.int64), 1, adapt, 0.05, 1e-4, skin, rng,
-                         np.zeros((n, 3)), stats)
+            for use_cells in (False, True):
+                stats = np.zeros((1, 1, N_STATS))
+                head, nxt, prv, cell = build_links(pos, box, cgrid)
+                shake_sweeps(pos, np.zeros((n, 3)), radii, species, box, np.array([0.1]), start, idx, skin, ncell,
+                             method, method % 2, np.array([3], np.int64), 1, adapt, 0.05, 1e-4, skin, rng,
+                             np.zeros((n, 3)), stats, use_cells, cgrid, head, nxt, prv, cell)

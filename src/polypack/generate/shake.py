@@ -86,6 +86,7 @@ def shake(
     adapt_factor=0.05,
     target_acceptance=0.4,
     skin=None,
+    neighbours="auto",
     monitor_every=None,
     monitor_options=None,
     callback=None,
@@ -156,6 +157,12 @@ def shake(
         listed); default ``max(0.5, 4 max R_sh)``, capped by the box, and widened
         while running if the list has to be rebuilt often.  Affects speed only: the
         overlap test is exact for any skin, so results do not depend on it.
+    neighbours : {"auto", "verlet", "cells"}
+        Neighbour structure for the overlap test: the size-aware Verlet list, or
+        linked cell lists of side ``2 r_max`` plus the largest step (cheaper for large
+        steps, e.g. Metropolis in a dilute fluid, but only for similar sizes).
+        ``"auto"`` uses cells when ``r_max <= 2 r_min`` and ``max R_sh >= 0.25``.
+        Both tests are exact, so the results are identical.
     monitor_every : int, optional
         Record the contact values ``g_km(a_k + a_m)+`` (via
         :func:`polypack.analysis.contact_value`) every this many global shakes;
@@ -240,6 +247,8 @@ def shake(
                 f"monitor_options={monitor_options!r}: a dict with keys among {sorted(mon_opts)}"
             )
         mon_opts.update(monitor_options)
+    if neighbours not in ("auto", "verlet", "cells"):
+        raise InvalidInputError(f"neighbours={neighbours!r}: allowed are 'auto', 'verlet' and 'cells'")
     if callback is not None and not callable(callback):
         raise InvalidInputError(f"callback={callback!r}: must be callable as callback(m, packing)")
     ss = as_seed_sequence(seed)
@@ -270,16 +279,52 @@ def shake(
             f"shake_radius={rsh_top:g} exceeds the neighbour skin {s:g} (the box allows at most "
             f"{s_cap:g}); use a smaller shake_radius or a larger pack"
         )
-    reach_small = 2.0 * (1.0 + s) * float(np.percentile(radii, 10))
-    ncell = np.ascontiguousarray(choose_cells(box, packing.n, reach_small), dtype=np.int64)
-
     pos = np.array(packing.positions, dtype=np.float64, order="C")
     since = np.zeros_like(pos)
     net = np.zeros_like(pos)
     rng = ss.generate_state(4, np.uint64)
-    t_build = time.perf_counter()
-    start, idx = kern.build_list(pos, radii, box, s, ncell)
-    t_build = time.perf_counter() - t_build
+    r_max, r_min = float(radii.max()), float(radii.min())
+    # per-species largest radius: the largest absolute step of species k is rsh[k] * a_max^(k)
+    r_max_sp = np.array([radii[species == k].max() if np.any(species == k) else 0.0 for k in range(ns)])
+    similar = r_max <= 2.0 * r_min
+    nb = {"mode": None, "s": s, "ncell": None, "start": None, "idx": None, "t_build": 0.0, "rebuilds": 0,
+          "h": 0.0, "cgrid": np.ones(3, np.int64), "links": None}
+    dummy_i = np.zeros(1, np.int64)
+
+    def verlet(s_new):
+        nb["s"] = s_new
+        reach_small = 2.0 * (1.0 + s_new) * float(np.percentile(radii, 10))
+        nb["ncell"] = np.ascontiguousarray(choose_cells(box, packing.n, reach_small), dtype=np.int64)
+        t = time.perf_counter()
+        nb["start"], nb["idx"] = kern.build_list(pos, radii, box, s_new, nb["ncell"])
+        nb["t_build"] = time.perf_counter() - t
+        since[:] = 0.0
+        nb["mode"] = "verlet"
+        nb["rebuilds"] += 1
+
+    def cells(step_abs):
+        # cell side >= 2 r_max + the largest step: the 27 cells around a sphere hold every partner
+        nb["h"] = 2.0 * r_max + 1.5 * step_abs
+        nb["cgrid"] = np.maximum(1, np.floor(box / nb["h"])).astype(np.int64)
+        nb["links"] = kern.build_links(pos, box, nb["cgrid"])
+        nb["mode"] = "cells"
+
+    def arrange():
+        """Pick and (re)build the neighbour structure for the current windows."""
+        step_abs = float(np.max(rsh * r_max_sp))
+        want = neighbours == "cells" or (neighbours == "auto" and similar and float(rsh.max()) >= 0.25)
+        if want:
+            if nb["mode"] != "cells" or 2.0 * r_max + step_abs > nb["h"]:
+                cells(step_abs)
+        elif nb["mode"] != "verlet":
+            verlet(nb["s"])
+        elif float(rsh.max()) > nb["s"] or (skin is None and 3.0 * float(rsh.max()) > nb["s"] and nb["s"] < s_cap):
+            # the window grew: widen the skin (it must never be below the window)
+            top = float(rsh.max())
+            verlet(min(s_cap, 4.0 * top) if skin is None else max(nb["s"], top))
+
+    arrange()
+    nb["rebuilds"] = 0
     rebuilds = 0
 
     counts = np.bincount(species, minlength=ns).astype(np.float64)
@@ -321,31 +366,38 @@ def shake(
             else:
                 chunk = min(global_shakes - m, 20)
             stats = np.zeros((chunk, ns, kern.N_STATS))
+            use_cells = nb["mode"] == "cells"
+            if use_cells:
+                head, nxt, prv, cell = nb["links"]
+                start, idx, ncell = dummy_i, dummy_i, nb["cgrid"]
+                cap = (nb["h"] - 2.0 * r_max) / r_max
+            else:
+                head = nxt = prv = cell = dummy_i
+                start, idx, ncell = nb["start"], nb["idx"], nb["ncell"]
+                cap = 0.5 * nb["s"]
             t0 = time.perf_counter()
             start, idx, nreb = kern.shake_sweeps(
-                pos, since, radii, species, box, rsh, start, idx, s, ncell, code, ocode, trials, chunk,
-                adapting and method != "metropolis", adapt_factor, _RSH_MIN, 0.5 * s, rng, net, stats,
+                pos, since, radii, species, box, rsh, start, idx, nb["s"], ncell, code, ocode, trials, chunk,
+                adapting and method != "metropolis", adapt_factor, _RSH_MIN, cap, rng, net, stats,
+                use_cells, nb["cgrid"], head, nxt, prv, cell,
             )
-            kernel_time += time.perf_counter() - t0
+            elapsed = time.perf_counter() - t0
+            kernel_time += elapsed
+            if not use_cells:
+                nb["start"], nb["idx"] = start, idx
             rebuilds += int(nreb)
             window_sweeps += chunk
             window_rebuilds += int(nreb)
-            window_time += time.perf_counter() - t0
+            window_time += elapsed
             if window_sweeps >= 20:
                 # rebuilds take more than ~1/4 of the time: a wider skin pays off
-                frequent = window_rebuilds * t_build > 0.25 * window_time
+                frequent = window_rebuilds * nb["t_build"] > 0.25 * window_time
                 window_sweeps = window_rebuilds = 0
                 window_time = 0.0
             else:
                 frequent = False
-            if skin is None and frequent and s < s_cap:
-                # frequent rebuilds (large or many-sized windows): widen the skin
-                s = min(s_cap, 1.4 * s)
-                reach_small = 2.0 * (1.0 + s) * float(np.percentile(radii, 10))
-                ncell = np.ascontiguousarray(choose_cells(box, packing.n, reach_small), dtype=np.int64)
-                start, idx = kern.build_list(pos, radii, box, s, ncell)
-                since[:] = 0.0
-                rebuilds += 1
+            if skin is None and frequent and nb["mode"] == "verlet" and nb["s"] < s_cap:
+                verlet(min(s_cap, 1.4 * nb["s"]))
             for st in stats:
                 m += 1
                 total_trials += float(st[:, kern.ST_TRIALS].sum())
@@ -367,14 +419,8 @@ def shake(
                         fac = min(1.4, max(0.7, acc[k] / target_acceptance))
                         rsh[k] = min(s_cap, max(_RSH_MIN, rsh[k] * fac))
                 hist["shake_radius_history"][-1] = [float(x) for x in rsh]
-            if adapting and 3.0 * float(rsh.max()) > s and s < s_cap:
-                # the window grew: widen the Verlet skin so that rebuilds stay rare
-                s = min(s_cap, 4.0 * float(rsh.max()))
-                reach_small = 2.0 * (1.0 + s) * float(np.percentile(radii, 10))
-                ncell = np.ascontiguousarray(choose_cells(box, packing.n, reach_small), dtype=np.int64)
-                start, idx = kern.build_list(pos, radii, box, s, ncell)
-                since[:] = 0.0
-                rebuilds += 1
+            if adapting:
+                arrange()
             if per_shake:
                 cur = packing.replace(positions=pos)
                 if monitor_every and m % monitor_every == 0:
@@ -410,12 +456,14 @@ def shake(
         "adaptive": bool(adaptive),
         "adapt_shakes": adapt_shakes if adaptive else 0,
         "target_acceptance": target_acceptance if (adaptive and method == "metropolis") else None,
-        "skin": s,
+        "skin": nb["s"],
+        "neighbours": neighbours,
+        "final_neighbour_structure": nb["mode"],
         "trials": int(total_trials),
         "accepted": int(total_accepted),
         "acceptance": total_accepted / total_trials if total_trials else None,
         "trial_moves_per_second": total_trials / kernel_time if kernel_time > 0 else None,
-        "rebuilds": rebuilds,
+        "rebuilds": rebuilds + nb["rebuilds"],
         "wall_time": None,
         "min_gap": float(gap_out),
         "input_min_gap": float(gap_in),
