@@ -16,7 +16,22 @@ import numpy as np
 from ..errors import InvalidInputError
 from ..packing import Packing
 
-__all__ = ["PairMap", "Estimator", "check_packing", "check_positive", "check_r_max", "to_jsonable"]
+__all__ = [
+    "PairMap",
+    "Estimator",
+    "GridEstimator",
+    "PairCountEstimator",
+    "check_packing",
+    "check_positive",
+    "check_r_max",
+    "check_grid",
+    "check_scale",
+    "check_normalization",
+    "to_jsonable",
+]
+
+SCALES = ("distance", "contact")
+NORMALIZATIONS = ("finite_size", "seed")
 
 
 def check_packing(packing, min_n=1, what="analysis"):
@@ -52,6 +67,38 @@ def check_r_max(r_max, box, what="r_max"):
         )
 
 
+def check_grid(r_max, dr, bins):
+    """``(r_max, dr, nbins)`` of a radial grid from ``dr`` or ``bins``; ``r_max`` rounded down to whole steps."""
+    r_max = check_positive("r_max", r_max)
+    if dr is None and bins is None:
+        raise InvalidInputError("give the bin width dr (> 0) or the number of bins")
+    if dr is not None:
+        dr = check_positive("dr", dr)
+        if dr > r_max:
+            raise InvalidInputError(f"dr={dr:g} exceeds r_max={r_max:g}; need dr <= r_max")
+        nbins = int(np.floor(r_max / dr + 1e-9))
+    else:
+        if int(bins) != bins or bins < 1:
+            raise InvalidInputError(f"bins={bins!r} must be an integer >= 1")
+        nbins = int(bins)
+        dr = r_max / nbins
+    return nbins * dr, dr, nbins
+
+
+def check_scale(scale):
+    if scale not in SCALES:
+        raise InvalidInputError(f"scale={scale!r}: allowed are {', '.join(map(repr, SCALES))}")
+    return scale
+
+
+def check_normalization(normalization):
+    if normalization not in NORMALIZATIONS:
+        raise InvalidInputError(
+            f"normalization={normalization!r}: allowed are {', '.join(map(repr, NORMALIZATIONS))}"
+        )
+    return normalization
+
+
 class PairMap(Mapping):
     """Read-only mapping ``(k, m) -> array`` over species pairs with clear errors.
 
@@ -62,6 +109,12 @@ class PairMap(Mapping):
     def __init__(self, data, what="partial"):
         self._d = dict(data)
         self._what = what
+
+    @classmethod
+    def from_array(cls, arr, what="partial"):
+        """Map every ordered pair ``(k, m)`` to ``arr[k, m]`` of a ``(K, K, ...)`` array."""
+        ns = arr.shape[0]
+        return cls({(k, m): arr[k, m] for k in range(ns) for m in range(ns)}, what)
 
     def __getitem__(self, key):
         try:
@@ -150,3 +203,54 @@ class Estimator:
 
             _, ax = plt.subplots()
         return ax
+
+
+class GridEstimator(Estimator):
+    """Estimator on the radial grid ``dr, 2 dr, ..., r_max`` (see :func:`check_grid`)."""
+
+    def __init__(self, r_max, dr=None, bins=None):
+        super().__init__()
+        self._r_max, self._dr, self._nbins = check_grid(r_max, dr, bins)
+
+    @property
+    def r_max(self) -> float:
+        return self._r_max
+
+    @property
+    def dr(self) -> float:
+        return self._dr
+
+
+class PairCountEstimator(GridEstimator):
+    """Grid estimator built on pair counts per species pair (K functions and RDFs).
+
+    Holds ``scale`` and ``normalization``, checks that accumulated packs have the same
+    number of species, and pools the per-realization counts (frame key ``_count_key``)
+    and ideal pair densities (``"dens"``, ``"dens_total"``).
+    """
+
+    _count_key = "counts"
+
+    def __init__(self, r_max, dr=None, bins=None, scale="distance", normalization="finite_size"):
+        super().__init__(r_max, dr, bins)
+        self.scale = check_scale(scale)
+        self.normalization = check_normalization(normalization)
+
+    def _begin(self, packing, reset, what):
+        """Input checks and reset before adding ``packing`` as a realization."""
+        check_packing(packing, min_n=2, what=what)
+        if reset:
+            self.reset()
+        elif self._frames and self._frames[0][self._count_key].shape[0] != packing.n_species:
+            raise InvalidInputError(
+                f"pack has {packing.n_species} species but earlier realizations had "
+                f"{self._frames[0][self._count_key].shape[0]}; use reset=True"
+            )
+
+    def _pooled(self):
+        """Summed counts, ideal pair densities per species pair, and the total density."""
+        self._require()
+        counts = self._sum(self._count_key)
+        dens = self._sum("dens")
+        dens_t = float(np.sum([f["dens_total"] for f in self._frames]))
+        return counts, dens, dens_t

@@ -9,26 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InvalidInputError
 from ..neighbors import choose_cells
 from ._base import check_r_max
-
-SCALES = ("distance", "contact")
-NORMALIZATIONS = ("finite_size", "seed")
-
-
-def check_scale(scale):
-    if scale not in SCALES:
-        raise InvalidInputError(f"scale={scale!r}: allowed are {', '.join(map(repr, SCALES))}")
-    return scale
-
-
-def check_normalization(normalization):
-    if normalization not in NORMALIZATIONS:
-        raise InvalidInputError(
-            f"normalization={normalization!r}: allowed are {', '.join(map(repr, NORMALIZATIONS))}"
-        )
-    return normalization
 
 
 def pair_counts(packing, x_max, nbins, scale="distance"):

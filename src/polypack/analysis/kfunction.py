@@ -9,15 +9,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..errors import InvalidInputError
-from ._base import Estimator, PairMap, check_packing, to_jsonable
-from ._paircounts import check_normalization, check_scale, pair_counts, pair_norms
-from .rdf import _grid
+from ._base import PairCountEstimator, PairMap, to_jsonable
+from ._paircounts import pair_counts, pair_norms
 
 __all__ = ["KFunction"]
 
 
-class KFunction(Estimator):
+class KFunction(PairCountEstimator):
     """Second-order intensity (Ripley's K) function, total and per species pair.
 
     Parameters
@@ -45,30 +43,11 @@ class KFunction(Estimator):
     is ``(N_m - delta_km) K_km(r) / V``.
     """
 
-    def __init__(self, r_max, dr=None, bins=None, scale="distance", normalization="finite_size"):
-        super().__init__()
-        self._r_max, self._dr, self._nbins = _grid(r_max, dr, bins)
-        self.scale = check_scale(scale)
-        self.normalization = check_normalization(normalization)
-
-    @property
-    def r_max(self) -> float:
-        return self._r_max
-
-    @property
-    def dr(self) -> float:
-        return self._dr
+    _count_key = "cum"
 
     def compute(self, packing, reset=True):
         """Accumulate the pair counts of ``packing``; returns ``self``."""
-        check_packing(packing, min_n=2, what="KFunction")
-        if reset:
-            self.reset()
-        elif self._frames and self._frames[0]["cum"].shape[0] != packing.n_species:
-            raise InvalidInputError(
-                f"pack has {packing.n_species} species but earlier realizations had "
-                f"{self._frames[0]['cum'].shape[0]}; use reset=True"
-            )
+        self._begin(packing, reset, "KFunction")
         ns = packing.n_species
         c = pair_counts(packing, self._r_max, self._nbins, self.scale).reshape(ns, ns, self._nbins)
         cum = np.cumsum(c, axis=-1)
@@ -86,13 +65,6 @@ class KFunction(Estimator):
         """Grid ``dr, 2 dr, ..., r_max``."""
         return np.arange(1, self._nbins + 1) * self._dr
 
-    def _pooled(self):
-        self._require()
-        cum = self._sum("cum")
-        dens = self._sum("dens")
-        dens_t = float(np.sum([f["dens_total"] for f in self._frames]))
-        return cum, dens, dens_t
-
     @property
     def K(self) -> np.ndarray:
         """Total K(r), pooled over realizations."""
@@ -105,8 +77,7 @@ class KFunction(Estimator):
         cum, dens, _ = self._pooled()
         with np.errstate(divide="ignore", invalid="ignore"):
             k = cum / dens[..., None]
-        ns = k.shape[0]
-        return PairMap({(a, b): k[a, b] for a in range(ns) for b in range(ns)}, "KFunction.partial")
+        return PairMap.from_array(k, "KFunction.partial")
 
     @property
     def L(self) -> np.ndarray:

@@ -9,29 +9,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InvalidInputError
-from ._base import Estimator, PairMap, check_packing, check_positive, to_jsonable
-from ._paircounts import check_normalization, check_scale, pair_counts, pair_norms, species_radii
+from ._base import PairCountEstimator, PairMap, check_packing, check_positive, to_jsonable
+from ._paircounts import pair_counts, pair_norms, species_radii
 
 __all__ = ["RDF", "contact_value", "scaled_coordinate", "size_classes"]
 
 METHODS = ("histogram", "right", "central")
-
-
-def _grid(r_max, dr, bins):
-    r_max = check_positive("r_max", r_max)
-    if dr is None and bins is None:
-        raise InvalidInputError("give the bin width dr (> 0) or the number of bins")
-    if dr is not None:
-        dr = check_positive("dr", dr)
-        if dr > r_max:
-            raise InvalidInputError(f"dr={dr:g} exceeds r_max={r_max:g}; need dr <= r_max")
-        nbins = int(np.floor(r_max / dr + 1e-9))
-    else:
-        if int(bins) != bins or bins < 1:
-            raise InvalidInputError(f"bins={bins!r} must be an integer >= 1")
-        nbins = int(bins)
-        dr = r_max / nbins
-    return nbins * dr, dr, nbins
 
 
 def scaled_coordinate(r, a_k, a_m):
@@ -87,7 +70,7 @@ def size_classes(packing, n_classes=None, edges=None, spacing="geometric"):
     return packing.replace(species=remap[species])
 
 
-class RDF(Estimator):
+class RDF(PairCountEstimator):
     """Radial distribution function and all partial RDFs of a periodic pack.
 
     Parameters
@@ -136,22 +119,10 @@ class RDF(Estimator):
     """
 
     def __init__(self, r_max, dr=None, bins=None, method="histogram", scale="distance", normalization="finite_size"):
-        super().__init__()
-        self._r_max, self._dr, self._nbins = _grid(r_max, dr, bins)
+        super().__init__(r_max, dr, bins, scale, normalization)
         if method not in METHODS:
             raise InvalidInputError(f"method={method!r}: allowed are {', '.join(map(repr, METHODS))}")
         self.method = method
-        self.scale = check_scale(scale)
-        self.normalization = check_normalization(normalization)
-
-    # ------------------------------------------------------------ parameters
-    @property
-    def r_max(self) -> float:
-        return self._r_max
-
-    @property
-    def dr(self) -> float:
-        return self._dr
 
     # --------------------------------------------------------------- compute
     def _fine(self):
@@ -161,14 +132,7 @@ class RDF(Estimator):
 
     def compute(self, packing, reset=True):
         """Accumulate the pair counts of ``packing``; returns ``self``."""
-        check_packing(packing, min_n=2, what="RDF")
-        if reset:
-            self.reset()
-        elif self._frames and self._frames[0]["counts"].shape[0] != packing.n_species:
-            raise InvalidInputError(
-                f"pack has {packing.n_species} species but earlier realizations had "
-                f"{self._frames[0]['counts'].shape[0]}; use reset=True"
-            )
+        self._begin(packing, reset, "RDF")
         nfine, h = self._fine()
         ns = packing.n_species
         c = pair_counts(packing, nfine * h, nfine, self.scale).reshape(ns, ns, nfine)
@@ -218,13 +182,6 @@ class RDF(Estimator):
         return g, gt
 
     # --------------------------------------------------------------- results
-    def _pooled(self):
-        self._require()
-        counts = self._sum("counts")
-        dens = self._sum("dens")
-        dens_t = float(np.sum([f["dens_total"] for f in self._frames]))
-        return counts, dens, dens_t
-
     @property
     def r(self) -> np.ndarray:
         """Radii at which g is reported (shell centres for ``"histogram"``)."""
@@ -241,8 +198,7 @@ class RDF(Estimator):
         """Partial RDFs ``g_km`` keyed by species pair ``(k, m)`` (both orders)."""
         counts, dens, dens_t = self._pooled()
         g = self._estimate(counts, dens, counts.sum(axis=(0, 1)), dens_t)[0]
-        ns = g.shape[0]
-        return PairMap({(k, m): g[k, m] for k in range(ns) for m in range(ns)}, "RDF.partial")
+        return PairMap.from_array(g, "RDF.partial")
 
     def _poisson_err(self, partial):
         counts, dens, dens_t = self._pooled()
@@ -273,8 +229,7 @@ class RDF(Estimator):
         """Standard errors of the partial RDFs (same convention as :attr:`g_err`)."""
         self._require()
         e = self._stderr(self._stack("g")) if self.n_realizations >= 2 else self._poisson_err(True)
-        ns = e.shape[0]
-        return PairMap({(k, m): e[k, m] for k in range(ns) for m in range(ns)}, "RDF.partial_err")
+        return PairMap.from_array(e, "RDF.partial_err")
 
     @property
     def species_radii(self) -> np.ndarray:

@@ -7,9 +7,8 @@ import numpy as np
 
 from ..errors import InvalidInputError
 from ..neighbors import choose_cells
-from ._base import Estimator, PairMap, check_packing, check_positive, check_r_max, to_jsonable
+from ._base import Estimator, GridEstimator, PairMap, check_packing, check_positive, check_r_max, to_jsonable
 from ._paircounts import pair_counts, species_radii
-from .rdf import _grid
 
 __all__ = ["WindowCounts", "ShellCount", "lattice_shell_count"]
 
@@ -158,7 +157,7 @@ class WindowCounts(Estimator):
         return ax
 
 
-class ShellCount(Estimator):
+class ShellCount(GridEstimator):
     """Mean number of centres in the shell ``[r, r + dr)`` around a sphere, Eq. (18).
 
     ``I(r, Delta r) = 4 pi n r^2 Delta r g+(r, Delta r)`` of 000_2cedc098acbd866b.txt
@@ -166,10 +165,6 @@ class ShellCount(Estimator):
     I is the integer shell population (6 at ``r = 2a`` for simple cubic, Fig. 7).
     ``partial[(k, m)]`` counts m centres around k spheres.
     """
-
-    def __init__(self, r_max, dr=None, bins=None):
-        super().__init__()
-        self._r_max, self._dr, self._nbins = _grid(r_max, dr, bins)
 
     def compute(self, packing, reset=True):
         check_packing(packing, min_n=2, what="ShellCount")
@@ -200,9 +195,8 @@ class ShellCount(Estimator):
         self._require()
         c = self._sum("counts")
         nk = self._sum("nk")
-        ns = c.shape[0]
         with np.errstate(divide="ignore", invalid="ignore"):
-            return PairMap({(k, m): c[k, m] / nk[k] for k in range(ns) for m in range(ns)}, "ShellCount.partial")
+            return PairMap.from_array(c / nk[:, None, None], "ShellCount.partial")
 
     def to_dict(self) -> dict:
         return to_jsonable(
