@@ -11,23 +11,6 @@ import polypack as pp
 from polypack.errors import InvalidInputError, PolypackError
 
 
-def _require(module, name):
-    """Skip unless ``module.name`` exists (pieces built in parallel land at different times)."""
-    import importlib
-
-    try:
-        mod = importlib.import_module(module)
-        getattr(mod, name)
-    except (ImportError, AttributeError):
-        pytest.skip(f"{module}.{name} not available yet")
-
-
-@pytest.fixture(autouse=True)
-def _stages_available():
-    _require("polypack.psd", "Bimodal")
-    _require("polypack.generate.lubachevsky", "pack")
-
-
 def tiny(seed=11, realizations=3, **protocol):
     pr = {"kind": "crm", "volume_fraction": 0.45}
     pr.update(protocol)
@@ -242,7 +225,6 @@ def test_cli_run_and_resume(tmp_path, capsys):
 
 
 def test_scrm_study_serial_equals_two_processes(tmp_path):
-    _require("polypack.generate.shake", "scrm")
     study = tiny(realizations=2, kind="scrm", volume_fraction=0.5, global_shakes=3, growth_steps=3)
     a = pp.ensemble.run_study(study, tmp_path / "a")
     pp.ensemble.run_study(study, tmp_path / "b", workers=2)
@@ -256,7 +238,6 @@ def test_scrm_study_serial_equals_two_processes(tmp_path):
 
 
 def test_crm_with_global_shakes(tmp_path):
-    _require("polypack.generate.shake", "shake")
     study = tiny(realizations=1, global_shakes=2)
     res = pp.ensemble.run_study(study, tmp_path)
     assert res.records[0]["protocol"]["shake.global_shakes"] == 2
