@@ -330,3 +330,12 @@ def test_cli_scheduler_address_gives_identical_results(serial_run, tmp_path):
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster:
         main(["run", str(f), "--out", str(tmp_path / "o"), "--scheduler", cluster.scheduler_address])
     assert_same(results(out, 3), results(tmp_path / "o", 3))
+
+
+def test_regenerate_a_realization_from_its_record(serial_run):
+    out, res = serial_run
+    pk, rec = pp.ensemble.regenerate(out, 1)
+    assert np.array_equal(pk.positions, positions(out, 1))
+    assert rec["analysis"] == res.records[1]["analysis"]
+    with pytest.raises(InvalidInputError, match="index=7"):
+        pp.ensemble.regenerate(out, 7)

@@ -14,11 +14,20 @@ e.g. one started by dask-jobqueue on SLURM).
 from __future__ import annotations
 
 from .dask_helpers import dask_executor
-from .runner import EnsembleResult, aggregate, ensemble_curves, run_realization, run_study, verify_realization
+from .runner import (
+    EnsembleResult,
+    aggregate,
+    ensemble_curves,
+    regenerate,
+    run_realization,
+    run_study,
+    verify_realization,
+)
 from .stages import child_seed_records, make_packing, make_sizes, realize, run_analyses
 
 __all__ = [
     "run_study",
+    "regenerate",
     "EnsembleResult",
     "dask_executor",
     "aggregate",

@@ -35,7 +35,7 @@ from ..errors import InvalidInputError, PolypackError
 from ..study import Study, load_study
 from .stages import check_available, child_seed_records, preflight, realize
 
-__all__ = ["run_study", "EnsembleResult", "run_realization", "verify_realization", "aggregate"]
+__all__ = ["run_study", "EnsembleResult", "run_realization", "verify_realization", "aggregate", "regenerate"]
 
 CI_FACTOR = 1.96
 
@@ -53,6 +53,31 @@ def run_realization(study_data: dict, index: int, seed_rec: dict):
     t0 = time.perf_counter()
     packing, record = realize(study_data, index, seed_rec)
     return index, packing, record, time.perf_counter() - t0
+
+
+def regenerate(out, index: int):
+    """Recompute realization ``index`` of a finished run from its folder: ``(packing, record)``.
+
+    Uses the resolved study in ``out/study.resolved.json`` and the seed in the
+    realization's record, so the pack is bitwise the one in ``rNNNN.gsd`` (same platform
+    and versions).
+    """
+    out = Path(out)
+    try:
+        with open(out / "study.resolved.json", encoding="utf-8") as fh:
+            doc = json.load(fh)
+    except FileNotFoundError:
+        raise InvalidInputError(f"{out} holds no study.resolved.json: not a polypack run folder") from None
+    study = Study(doc["study"])
+    _, rec = _paths(out, index)
+    if rec.is_file():
+        with open(rec, encoding="utf-8") as fh:
+            seed = json.load(fh)["seed"]
+    elif 0 <= index < study.realizations:
+        seed = child_seed_records(study.seed, index + 1)[index]
+    else:
+        raise InvalidInputError(f"index={index}: the study has realizations 0..{study.realizations - 1}")
+    return realize(study.data, index, seed)
 
 
 def _worker_init():
