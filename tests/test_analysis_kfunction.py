@@ -75,3 +75,19 @@ def test_accumulate_plot_dict_and_errors():
         k.partial[(2, 0)]
     with pytest.raises(InvalidInputError, match="dr="):
         pp.analysis.KFunction(r_max=3.0, dr=-1)
+
+
+def test_contact_scaled_K_of_boolean_model():
+    # Poisson centres with two radii: in x = d/(r_i + r_j) every pair has K(x) = 4 pi x^3 / 3
+    rng = np.random.default_rng(9)
+    n, L = 20000, 20.0
+    rad = np.where(rng.random(n) < 0.3, 0.4, 0.1)
+    pk = pp.Packing(rng.random((n, 3)) * L, rad, L, species=(rad < 0.2).astype(int))
+    k = pp.analysis.KFunction(r_max=4.0, dr=0.5, scale="contact").compute(pk)
+    expect = 4 / 3 * np.pi * k.r**3
+    cnt = pk.species_counts
+    s = {(0, 0): 0.8, (0, 1): 0.5, (1, 0): 0.5, (1, 1): 0.2}
+    for key, sij in s.items():
+        a, b = key
+        npairs = cnt[a] * (cnt[b] - (a == b)) * expect * sij**3 / L**3 / (2 if a == b else 1)
+        assert np.all(np.abs(k.partial[key] / expect - 1) < 5 / np.sqrt(npairs)), key

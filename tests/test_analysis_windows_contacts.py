@@ -110,3 +110,25 @@ def test_contacts_accumulate():
         c.compute(rsa(np.random.default_rng(s), 300, 8.0), reset=False)
     assert c.n_realizations == 3 and c.coordination_err >= 0
     assert c.plot() is not None
+
+
+@pytest.mark.parametrize("reference", ["species", "sphere"])
+def test_window_counts_match_bruteforce_per_sphere(reference):
+    # window radius R_h a^(k): the species mean radius (seed) or the sphere's own radius
+    rng = np.random.default_rng(12)
+    n, L = 600, 12.0
+    rad = np.where(rng.random(n) < 0.4, 0.6, 0.25) * rng.uniform(0.9, 1.1, n)
+    sp = (rad < 0.4).astype(int)
+    pk = pp.Packing(rng.random((n, 3)) * L, rad, L, species=sp)
+    w = pp.analysis.WindowCounts(window_radius=3.0, reference=reference).compute(pk)
+    d = pk.positions[:, None] - pk.positions[None]
+    d -= L * np.round(d / L)
+    d = np.sqrt((d**2).sum(-1))
+    a = np.array([rad[sp == k].mean() for k in range(2)])[sp] if reference == "species" else rad
+    inside = (d <= 3.0 * a[:, None]) & ~np.eye(n, dtype=bool)
+    assert np.array_equal(w.counts, inside.sum(1))
+    for k in range(2):
+        for m in range(2):
+            vals = inside[sp == k][:, sp == m].sum(1)
+            expect = np.bincount(vals, minlength=w.n_h.size)[: w.n_h.size] / vals.size
+            assert np.allclose(w.partial[(k, m)], expect), (k, m)
