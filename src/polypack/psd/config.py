@@ -62,16 +62,10 @@ def model_from_dict(params: dict):
         if k not in allowed:
             raise InvalidInputError(f"{k}: not a parameter of model {name!r}; allowed: {', '.join(allowed)}")
     p = dict(params)
-    if name == "cumulative_beta":
-        return _m.CumulativeBeta(**p)
-    if name == "uniform_volume":
-        return _m.UniformVolume(**p)
-    if name == "uniform_size":
-        return _m.UniformSize(**p)
-    if name == "lognormal":
-        return _m.LogNormal(**p)
-    if name == "normal":
-        return _m.Normal(**p)
+    simple = {"cumulative_beta": _m.CumulativeBeta, "uniform_volume": _m.UniformVolume,
+              "uniform_size": _m.UniformSize, "lognormal": _m.LogNormal, "normal": _m.Normal}
+    if name in simple:
+        return simple[name](**p)
     if name == "monodisperse":
         return _m.Mixture([_m.Monodisperse(p.get("d", 1.0), p.get("dim", 3))], [1.0], dim=p.get("dim", 3))
     if name == "bimodal":
