@@ -277,7 +277,7 @@ def run_study(
                 bar.update(1)
         elif todo:
             if executor is None:
-                own = executor = cf.ProcessPoolExecutor(max_workers=workers, initializer=_worker_init)
+                own = executor = cf.ProcessPoolExecutor(max_workers=min(workers, len(todo)), initializer=_worker_init)
             futs = {executor.submit(run_realization, study.data, i, seeds[i]): i for i in todo}
             try:
                 for fut in cf.as_completed(futs):
