@@ -46,13 +46,12 @@ def build_cells(pos, box, ncell):
     cell_of = np.empty(n, np.int64)
     counts = np.zeros(nc + 1, np.int64)
     for i in range(n):
-        c = np.empty(3, np.int64)
+        ic = 0
         for k in range(3):
             ck = int(np.floor(pos[i, k] / box[k] * ncell[k]))
             if ck < 0:
                 ck += ncell[k] * ((-ck) // ncell[k] + 1)
-            c[k] = ck % ncell[k]
-        ic = (c[0] * ncell[1] + c[1]) * ncell[2] + c[2]
+            ic = ic * ncell[k] + ck % ncell[k]
         cell_of[i] = ic
         counts[ic + 1] += 1
     for c in range(nc):
@@ -131,32 +130,42 @@ def separation2(pos, i, j, box):
 
 
 @njit(cache=True)
-def _append_pair(pi, pj, pd, m, i, j, d):
-    """Store pair ``m``; returns the (possibly reallocated, doubled) arrays."""
-    if m == pi.shape[0]:
-        cap = 2 * m
-        ni = np.empty(cap, np.int64)
-        nj = np.empty(cap, np.int64)
-        nd = np.empty(cap, np.float64)
-        ni[:m] = pi[:m]
-        nj[:m] = pj[:m]
-        nd[:m] = pd[:m]
-        pi, pj, pd = ni, nj, nd
-    pi[m] = i
-    pj[m] = j
-    pd[m] = d
-    return pi, pj, pd
-
-
-@njit(cache=True)
-def _test_pair(pos, radii, box, a, b, i, j, pi, pj, pd, m):
-    """Append pair (i, j) if ``d_ij <= a (r_i + r_j) + b``; returns arrays and new count."""
+def _pair_distance(pos, radii, box, a, b, i, j):
+    """Centre distance of (i, j) if ``d_ij <= a (r_i + r_j) + b``, else -1."""
     d2 = separation2(pos, i, j, box)
     lim = a * (radii[i] + radii[j]) + b
     if d2 <= lim * lim:
-        pi, pj, pd = _append_pair(pi, pj, pd, m, i, j, np.sqrt(d2))
-        m += 1
-    return pi, pj, pd, m
+        return np.sqrt(d2)
+    return -1.0
+
+
+@njit(cache=True)
+def _fill_pairs(pos, radii, box, a, b, ncell, cell_of, start, order, pi, pj, pd):
+    """Store the pairs of :func:`pairs_within` into preallocated buffers.
+
+    Returns the number of pairs found, which exceeds the buffer length when they did
+    not all fit (only the first ``len(pi)`` are stored then).
+    """
+    cap = pi.shape[0]
+    m = 0
+    cl = cell_lengths(box, ncell)
+    visit = np.empty(start.shape[0] - 1, np.int64)
+    for i in range(pos.shape[0]):
+        nv = cells_in_reach(cell_of[i], 2.0 * a * radii[i] + b, cl, ncell, visit)
+        for q in range(nv):
+            c = visit[q]
+            for s in range(start[c], start[c + 1]):
+                j = order[s]
+                if j == i or not _larger(i, j, radii):
+                    continue
+                d = _pair_distance(pos, radii, box, a, b, i, j)
+                if d >= 0.0:
+                    if m < cap:
+                        pi[m] = i
+                        pj[m] = j
+                        pd[m] = d
+                    m += 1
+    return m
 
 
 @njit(cache=True)
@@ -183,24 +192,16 @@ def pairs_within(pos, radii, box, a, b, ncell):
     d : (M,) float64
         Centre distances.
     """
-    n = pos.shape[0]
     cell_of, start, order = build_cells(pos, box, ncell)
-    cap = max(16, 8 * n)
-    pi = np.empty(cap, np.int64)
-    pj = np.empty(cap, np.int64)
-    pd = np.empty(cap, np.float64)
-    m = 0
-    cl = cell_lengths(box, ncell)
-    visit = np.empty(start.shape[0] - 1, np.int64)
-    for i in range(n):
-        nv = cells_in_reach(cell_of[i], 2.0 * a * radii[i] + b, cl, ncell, visit)
-        for q in range(nv):
-            c = visit[q]
-            for s in range(start[c], start[c + 1]):
-                j = order[s]
-                if j == i or not _larger(i, j, radii):
-                    continue
-                pi, pj, pd, m = _test_pair(pos, radii, box, a, b, i, j, pi, pj, pd, m)
+    cap = max(16, 8 * pos.shape[0])
+    while True:
+        pi = np.empty(cap, np.int64)
+        pj = np.empty(cap, np.int64)
+        pd = np.empty(cap, np.float64)
+        m = _fill_pairs(pos, radii, box, a, b, ncell, cell_of, start, order, pi, pj, pd)
+        if m <= cap:
+            break
+        cap = m  # too many pairs for the buffers: rerun with the exact size
     return pi[:m].copy(), pj[:m].copy(), pd[:m].copy()
 
 
@@ -208,16 +209,25 @@ def pairs_within(pos, radii, box, a, b, ncell):
 def pairs_brute(pos, radii, box, a, b):
     """O(N^2) oracle for :func:`pairs_within` (tests and tiny systems)."""
     n = pos.shape[0]
-    cap = max(16, n)
-    pi = np.empty(cap, np.int64)
-    pj = np.empty(cap, np.int64)
-    pd = np.empty(cap, np.float64)
+    m = 0
+    for i in range(n):
+        for j in range(n):
+            if j != i and _larger(i, j, radii) and _pair_distance(pos, radii, box, a, b, i, j) >= 0.0:
+                m += 1
+    pi = np.empty(m, np.int64)
+    pj = np.empty(m, np.int64)
+    pd = np.empty(m, np.float64)
     m = 0
     for i in range(n):
         for j in range(n):
             if j == i or not _larger(i, j, radii):
                 continue
-            pi, pj, pd, m = _test_pair(pos, radii, box, a, b, i, j, pi, pj, pd, m)
+            d = _pair_distance(pos, radii, box, a, b, i, j)
+            if d >= 0.0:
+                pi[m] = i
+                pj[m] = j
+                pd[m] = d
+                m += 1
     return pi[:m].copy(), pj[:m].copy(), pd[:m].copy()
 
 
