@@ -11,7 +11,7 @@ import typer
 def register(app: typer.Typer) -> None:
     @app.command("run")
     def run(
-        study: Path = typer.Argument(..., help="Study file (TOML): [study] [psd] [protocol] [analysis.*] [output]."),
+        study: Path = typer.Argument(..., help="Study file (TOML) with tables study, psd, protocol, analysis.*, output (see docs/run.md)."),
         out: Optional[Path] = typer.Option(None, "--out", "-o", help="Output folder (default: out/<study name>)."),
         workers: int = typer.Option(1, "--workers", "-j", min=1, help="Worker processes (1: serial, in-process)."),
         scheduler: Optional[str] = typer.Option(
@@ -26,8 +26,8 @@ def register(app: typer.Typer) -> None:
     ):
         """Run a study: P seeded realizations, one GSD + record each, ensemble curves, summary table, plots.
 
-        Rerunning the same command resumes: realizations whose GSD and record exist and
-        whose checksum matches are kept, the others are computed.
+        Rerunning the same command resumes: realizations whose GSD and record exist
+        and whose checksum matches are kept, the others are computed.
         """
         from ..errors import InvalidInputError
         from ..study import load_study
