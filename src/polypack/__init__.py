@@ -9,12 +9,30 @@ from __future__ import annotations
 import os as _os
 
 # A per-user numba cache folder: a shared or read-only site-packages cache breaks caching.
+# numba does not invalidate a cached kernel when a kernel it calls from another file
+# changes, so the folder is keyed on a digest of all kernel sources.
+def _numba_cache_dir():
+    import hashlib
+
+    kernels = _os.path.join(_os.path.dirname(__file__), "_kernels")
+    digest = hashlib.sha1()
+    try:
+        for name in sorted(_os.listdir(kernels)):
+            if name.endswith(".py"):
+                with open(_os.path.join(kernels, name), "rb") as fh:
+                    digest.update(name.encode() + fh.read())
+    except OSError:
+        pass
+    base = _os.environ.get("XDG_CACHE_HOME", _os.path.join(_os.path.expanduser("~"), ".cache"))
+    return _os.path.join(base, "polypack", "numba", digest.hexdigest()[:12])
+
+
 if "NUMBA_CACHE_DIR" not in _os.environ:
-    _os.environ["NUMBA_CACHE_DIR"] = _os.path.join(
-        _os.environ.get("XDG_CACHE_HOME", _os.path.join(_os.path.expanduser("~"), ".cache")),
-        "polypack",
-        "numba",
-    )
+    _os.environ["NUMBA_CACHE_DIR"] = _numba_cache_dir()
+    import sys as _sys
+
+    if "numba.core.config" in _sys.modules:  # numba imported first: its config is already read
+        _sys.modules["numba.core.config"].CACHE_DIR = _os.environ["NUMBA_CACHE_DIR"]
 
 from importlib import import_module as _import_module
 
