@@ -221,6 +221,16 @@ def window_counts(pos, radii, species, box, nspecies, window, ncell):
 
 
 @njit(cache=True)
+def _wrap_cell(c, nc):
+    """Cell index ``c`` in ``-nc..2 nc - 1`` folded into ``0..nc - 1``."""
+    if c < 0:
+        return c + nc
+    if c >= nc:
+        return c - nc
+    return c
+
+
+@njit(cache=True)
 def _axis_gap_one(o, f, cl):
     if o > 0:
         return o * cl - f
@@ -362,21 +372,9 @@ def nearest_surface(points, pos, radii, box, ncell, r_max_radius, cls):
                             if lim <= 0.0 or g2 >= lim * lim:
                                 continue
                             any_close = True
-                            x = px + ox
-                            if x < 0:
-                                x += nc0
-                            elif x >= nc0:
-                                x -= nc0
-                            y = py + oy
-                            if y < 0:
-                                y += nc1
-                            elif y >= nc1:
-                                y -= nc1
-                            z = pz + oz
-                            if z < 0:
-                                z += nc2
-                            elif z >= nc2:
-                                z -= nc2
+                            x = _wrap_cell(px + ox, nc0)
+                            y = _wrap_cell(py + oy, nc1)
+                            z = _wrap_cell(pz + oz, nc2)
                             cidx = sb + (x * nc1 + y) * nc2 + z
                             for s in range(starts[cidx], starts[cidx + 1]):
                                 dx = min_image(sx[s] - qx, box[0])
