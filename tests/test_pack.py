@@ -82,7 +82,7 @@ def test_next_event_agrees_with_brute_force_oracle():
             t_ref, i_ref, j_ref = edmd.next_event_brute(x, v, g, box, t)
             if not t_ref < t_stop:
                 break
-            params = np.array([t_stop, 1.0, 1e12, 1e9, t_stop, 0.3, 1e9, 0.0, 0.3])
+            params = np.array([t_stop, 1.0, 1e12, 1e9, t_stop, 0.3, 1e9, 0.0, 0.3, 3.0])
             hist = np.zeros((4, 3))
             edmd.run_chunk(x, v, g, box, state, params, hist)
             assert state[0] == pytest.approx(t_ref, rel=1e-9, abs=1e-12), (trial, step)

@@ -465,6 +465,24 @@ def shell_reach(t, t_ref, alpha, dilute):
 
 
 @njit(cache=True)
+def _shell_radius(gi, t, D, g_margin, rho_cap):
+    """Shell radius ``min(g_i D, g_i t + g_margin (D - t), rho_cap)``.
+
+    The margin ``g_i (D - t)`` is proportional to the radius, but for spheres much
+    larger than the typical one it is limited to ``g_margin (D - t)`` (a few
+    typical margins): a thinner shell around a large sphere holds far fewer small
+    neighbours, which keeps its predictions cheap.
+    """
+    r = gi * D
+    r2 = gi * t + g_margin * (D - t)
+    if r2 < r:
+        r = r2
+    if r > rho_cap:
+        r = rho_cap
+    return r
+
+
+@njit(cache=True)
 def _levels(g):
     """Size levels for the multi-level grid: level l holds g in (gmax/2^(l+1), gmax/2^l]."""
     n = g.shape[0]
@@ -502,10 +520,11 @@ def run_chunk(x, v, g, box, state, params, hist):
     state : (8,) float64, in/out
         ``[t, collisions, events, rebuilds, virial_sum, ke_time_integral,
         local_rebuilds, status]`` (counts accumulate across chunks).
-    params : (9,) float64
+    params : (10,) float64
         ``[t_stop, max_collisions_this_chunk, max_pressure, pressure_window,
-        t_ref, alpha, max_events_this_chunk, sync_every, dilute]`` (shell widths:
-        :func:`shell_reach`).
+        t_ref, alpha, max_events_this_chunk, sync_every, dilute, margin_cap]``
+        (shell widths: :func:`shell_reach`, :func:`_shell_radius` with
+        ``g_margin = margin_cap * median(g)``).
     hist : (H, 3) float64
         Output rows ``(t, reduced pressure, window collisions)``, one per window.
 
@@ -556,6 +575,7 @@ def run_chunk(x, v, g, box, state, params, hist):
     rho = np.empty(n)
     level, nlev, gmax_lv = _levels(g)
     gmax = g.max()
+    g_margin = params[9] * np.median(g)
 
     n_hist = 0
     h_cap = hist.shape[0]
@@ -598,7 +618,7 @@ def run_chunk(x, v, g, box, state, params, hist):
                 for i in range(n):
                     for k in range(3):
                         xb[i, k] = x[i, k]
-                    rho[i] = min(g[i] * D, rho_cap)
+                    rho[i] = _shell_radius(g[i], t, D, g_margin, rho_cap)
                     if rho[i] > rho_max_lv[level[i]]:
                         rho_max_lv[level[i]] = rho[i]
                 off, nn, nbr = build_lists(x, rho, box, level, nlev, pad)
@@ -639,7 +659,7 @@ def run_chunk(x, v, g, box, state, params, hist):
             if g[i] * t >= rho_cap * (1.0 - 1e-9):
                 status = BOX_LIMIT
                 break
-            rho_new = min(g[i] * shell_reach(t, t_ref, alpha, dilute), rho_cap)
+            rho_new = _shell_radius(g[i], t, shell_reach(t, t_ref, alpha, dilute), g_margin, rho_cap)
             ok = _local_rebuild(i, rho_new, x, box, xb, rho, off, nn, nbr, level, nlev, rho_max_lv, nc, coff,
                                 head, nxt, prv, cell)
             state[6] += 1
@@ -764,7 +784,7 @@ def warmup():
     v = rng.normal(size=(n, 3))
     g = np.full(n, 0.01)
     state = np.zeros(8)
-    params = np.array([50.0, 100.0, 1e6, 16.0, 50.0, 0.3, 1e6, 0.0, 0.5])
+    params = np.array([50.0, 100.0, 1e6, 16.0, 50.0, 0.3, 1e6, 0.0, 0.5, 3.0])
     hist = np.zeros((16, 3))
     run_chunk(x, v, g, box, state, params, hist)
     next_event_brute(x, v, g, box, state[0])

@@ -26,12 +26,13 @@ _DEFAULTS = dict(
     species=None,
     max_pressure=1e6,
     pressure_window=None,
-    skin=0.25,
-    dilute_skin=0.25,
+    skin=None,
+    dilute_skin=None,
     chunk_seconds=0.5,
     jammed_reference_fraction=0.5,
     max_events=None,
     sync_every=None,
+    margin_cap=3.0,
 )
 
 _STATUS = {0: "running", 1: "target", 2: "jammed", 3: "box_limit", 4: "event_budget"}
@@ -141,10 +142,13 @@ def pack(
         ``species`` (with an array of radii), ``max_pressure`` (jamming threshold on
         the reduced pressure ``Z = PV/(NkT)``, default 1e6), ``pressure_window``
         (collisions per pressure estimate, default ``N``), ``skin`` (neighbour shell
-        as a fraction of the radius, default 0.25), ``dilute_skin`` (shell as a fraction
-        of the radius at the target while the spheres are small, default 0.25), ``chunk_seconds`` (0.5),
+        margin as a fraction of the radius; default 0.25, or 0.6 when the size ratio
+        is 5 or more, where the mobile fines make shell exits the main cost),
+        ``dilute_skin`` (the same at the start of the run, default ``skin``), ``chunk_seconds`` (0.5),
         ``jammed_reference_fraction`` (0.5), ``max_events``, ``sync_every`` (collisions
-        between full synchronisations with kinetic-energy reset, default ``4N``).
+        between full synchronisations with kinetic-energy reset, default ``4N``),
+        ``margin_cap`` (shell margin of a large sphere at most this many times the
+        margin of a median sphere, default 3).
 
     Returns
     -------
@@ -212,10 +216,13 @@ def pack(
     p_max = float(opt["max_pressure"])
     if not p_max > 3.0:
         raise InvalidInputError(f"max_pressure={p_max}: must be > 3")
-    skin = float(opt["skin"])
+    if not float(opt["margin_cap"]) > 0:
+        raise InvalidInputError(f"margin_cap={opt['margin_cap']}: must be > 0")
+    wide = float(radii.max() / radii.min()) >= 5.0
+    skin = float(opt["skin"] if opt["skin"] is not None else (0.6 if wide else 0.25))
     if not (0.0 < skin <= 5.0):
         raise InvalidInputError(f"skin={skin}: must be in (0, 5]")
-    dilute_skin = float(opt["dilute_skin"])
+    dilute_skin = float(opt["dilute_skin"] if opt["dilute_skin"] is not None else skin)
     if not (0.0 < dilute_skin <= 5.0):
         raise InvalidInputError(f"dilute_skin={dilute_skin}: must be in (0, 5]")
     window = int(opt["pressure_window"] or max(n, 100))
@@ -251,6 +258,11 @@ def pack(
         t0 = 0.0
         phi0 = 0.0
     v = rng.normal(size=(n, 3))
+    # work in a spatially sorted order (cache locality); undone before returning
+    perm = _spatial_order(x, box)
+    x = np.ascontiguousarray(x[perm])
+    v = np.ascontiguousarray(v[perm])
+    g = np.ascontiguousarray(g[perm])
     box_vol = float(np.prod(box))
     vol_unit = _SPHERE * float(np.sum((radii / mean_r) ** 3))  # sphere volume at t_unit
 
@@ -299,7 +311,8 @@ def pack(
                     status = "event_budget"
                     break
             params = np.array(
-                [t_stop, float(budget), p_max, float(window), t_ref, skin, float(ev_budget), float(opt["sync_every"] or 0), dilute_skin]
+                [t_stop, float(budget), p_max, float(window), t_ref, skin, float(ev_budget), float(opt["sync_every"] or 0), dilute_skin,
+                 float(opt["margin_cap"])]
             )
             hist = np.zeros((budget // max(window, 1) + 2, 3))
             c0 = state[1]
@@ -354,6 +367,9 @@ def pack(
         )
     # back to user units: radii exactly as given
     scale = mean_r * t_unit / t  # internal length -> user length
+    inv = np.empty_like(perm)
+    inv[perm] = np.arange(n)
+    x = x[inv]
     pos = x * scale
     box_out = box * scale
     gap, pair = _min_gap(pos, radii, box_out)
@@ -409,6 +425,15 @@ def pack(
     meta["history"] = history
     out = Packing(pos, radii, box_out, species=species, meta=meta)
     return out
+
+
+def _spatial_order(x, box):
+    """Sphere order along a coarse cell grid (neighbours close in memory)."""
+    n = x.shape[0]
+    m = max(1, int(round((n / 4.0) ** (1.0 / 3.0))))
+    c = np.floor(np.mod(x, box) / box * m).astype(np.int64).clip(0, m - 1)
+    key = (c[:, 0] * m + c[:, 1]) * m + c[:, 2]
+    return np.argsort(key, kind="stable")
 
 
 def _thin(rows, m):
