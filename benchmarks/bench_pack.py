@@ -116,6 +116,8 @@ def main():
     ap.add_argument("--timeout", type=float, default=300.0, help="per run, seconds")
     ap.add_argument("--no-peer", action="store_true", help="skip spheropack")
     ap.add_argument("--growth-rate", type=float, default=0.02)
+    ap.add_argument("--only", default=None, help="run only cases whose name contains this text")
+    ap.add_argument("--output", default="bench_pack.json", help="file name in benchmarks/results/")
     args = ap.parse_args()
 
     import polypack as pp
@@ -125,6 +127,8 @@ def main():
     pp.pack(np.ones(64), 0.3, seed=0)
     rows = []
     for name, radii, target in cases(args):
+        if args.only and args.only not in name:
+            continue
         ours = run_limited(_run_polypack, (radii, target, args.growth_rate, 1), args.timeout * 3)
         peer = None if args.no_peer else run_limited(_run_spheropack, (radii, target, args.growth_rate, 1), args.timeout)
         row = {"case": name, "n": int(radii.size), "target": target, "polypack": ours, "spheropack": peer}
@@ -138,8 +142,8 @@ def main():
     res_dir.mkdir(exist_ok=True)
     info = {"machine": platform.platform(), "cpus": os.cpu_count(), "python": sys.version.split()[0],
             "growth_rate": args.growth_rate, "note": "shared 2-core machine, timings are noisy", "rows": rows}
-    (res_dir / "bench_pack.json").write_text(json.dumps(info, indent=2, default=float))
-    print(f"wrote {res_dir / 'bench_pack.json'}")
+    (res_dir / args.output).write_text(json.dumps(info, indent=2, default=float))
+    print(f"wrote {res_dir / args.output}")
 
 
 def _fmt(r):

@@ -300,3 +300,17 @@ def test_overlapping_start_rejected():
     start = pp.Packing(pos, np.full(3, 0.5), 10.0)
     with pytest.raises(pp.OverlapError):
         pp.pack(start, 0.1)
+
+
+def test_pack_accepts_psd_sizeset():
+    psd = pytest.importorskip("polypack.psd")
+    s = psd.Bimodal(size_ratio=0.313, volume_ratio=0.333, d_large=1.0).sample(n=600, seed=1)
+    pk = pp.pack(s, volume_fraction=0.55, seed=1)
+    np.testing.assert_array_equal(pk.radii, s.radii)
+    np.testing.assert_array_equal(pk.species, s.species)
+    assert pk.volume_fraction == pytest.approx(0.55, rel=1e-9)
+    assert pk.min_gap() >= 0.0
+
+
+def test_kernel_warmup_runs():
+    edmd.warmup()
