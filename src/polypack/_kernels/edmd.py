@@ -655,7 +655,10 @@ def run_chunk(x, v, g, box, state, params, hist):
         j = ev_p[i]
         if j < 0:
             # shell exit: new shell and neighbour list for sphere i only
-            _predict(i, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)  # sync i
+            dt = t - tl[i]
+            for k in range(3):
+                x[i, k] += v[i, k] * dt
+            tl[i] = t
             if g[i] * t >= rho_cap * (1.0 - 1e-9):
                 status = BOX_LIMIT
                 break
