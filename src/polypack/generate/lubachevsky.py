@@ -32,7 +32,7 @@ _DEFAULTS = dict(
     jammed_reference_fraction=0.5,
     max_events=None,
     sync_every=None,
-    margin_cap=3.0,
+    margin_cap=1.0,
 )
 
 _STATUS = {0: "running", 1: "target", 2: "jammed", 3: "box_limit", 4: "event_budget"}
@@ -148,7 +148,7 @@ def pack(
         ``jammed_reference_fraction`` (0.5), ``max_events``, ``sync_every`` (collisions
         between full synchronisations with kinetic-energy reset, default ``4N``),
         ``margin_cap`` (shell margin of a large sphere at most this many times the
-        margin of a median sphere, default 3).
+        margin of a median sphere, default 1).
 
     Returns
     -------
