@@ -9,19 +9,26 @@ time ``t`` (proportional growth ``a^(k)(t) = a_0^(k) t`` of §3.1 of
 Data layout (flat arrays, C-like):
 
 * ``x`` (N,3) positions at the particle's own time ``tl[i]`` (lazy update),
-  unwrapped between neighbour-list rebuilds and folded into the box at each
-  rebuild (so there is no drift of periodic images);
+  unwrapped between full synchronisations and folded into the box at each one
+  (minimum image for every separation, so there is no drift of periodic images);
 * ``v`` (N,3) velocities; ``cnt[i]`` collision counter for invalidation;
 * one scheduled event per sphere (``ev_t``, ``ev_p`` partner or -1 for a shell
   exit, ``ev_c`` partner counter at prediction time) in an indexed binary
   min-heap;
-* neighbour lists in CSR form built by the size-aware cell search
-  :func:`polypack._kernels.cells.pairs_within` with the criterion
-  ``d_ij <= r_i + r_j + delta_i + delta_j``, ``delta_i = c g_i`` (a shell
-  proportional to the radius, so the cost per collision does not depend on the
-  size ratio of the neighbours a small sphere sees).  A sphere's list stays valid
-  while its displacement plus growth since the build is below ``delta_i``; the
-  first sphere to use up its shell triggers a rebuild (full synchronisation).
+* per-sphere shells: sphere ``i`` stays inside the ball ``(xb_i, rho_i)`` until
+  its shell-exit event (exact time from a quadratic), with ``rho_i = g_i D(t)``
+  at the build time ``t`` (a margin proportional to the radius, see
+  :func:`shell_reach`; for spheres larger than the median the margin is capped
+  at a multiple of the median margin, :func:`_shell_radius`).  Spheres whose
+  shells do not overlap cannot collide, so the symmetric lists of shell-overlap
+  pairs are complete;
+* neighbour lists in slabs (``off``, ``nn``, ``nbr``), built at each full
+  synchronisation with the size-aware cell search
+  :func:`polypack._kernels.cells.pairs_within` (criterion ``d <= rho_i + rho_j``);
+* a shell exit rebuilds only that sphere's shell and list, found in a multi-level
+  cell grid of shell centres (one grid per factor 2 in radius), so finding
+  neighbours costs the same at any size ratio (predicting a large sphere's next
+  event still scans the small spheres around it, about (R/r)^2 of them).
 """
 
 from __future__ import annotations
