@@ -73,6 +73,23 @@ def _register_commands():
 _register_commands()
 
 
+def _click_exception_types():
+    """Usage-error and abort classes of click and of typer's vendored copy (typer >= 0.29
+    no longer depends on click), whichever are installed."""
+    import importlib
+
+    errors, aborts = [], []
+    for name in ("click.exceptions", "typer._click.exceptions"):
+        try:
+            mod = importlib.import_module(name)
+        except ImportError:
+            continue
+        errors.append(mod.ClickException)
+        if hasattr(mod, "Abort"):  # not in typer's vendored copy
+            aborts.append(mod.Abort)
+    return tuple(errors), tuple(aborts)
+
+
 def main(argv=None):
     """Entry point: polypack errors become one-line messages and exit code 1."""
     try:
@@ -86,19 +103,11 @@ def main(argv=None):
     except SystemExit:
         raise
     except Exception as exc:  # click usage errors and friends
-        import click
-
-        click_errors, aborts = [click.exceptions.ClickException], [click.exceptions.Abort]
-        try:  # typer >= 0.29 raises the exceptions of its vendored click copy
-            from typer._click import exceptions as _vendored
-
-            click_errors.append(_vendored.ClickException)
-        except ImportError:  # pragma: no cover
-            pass
-        if isinstance(exc, tuple(click_errors)):
+        click_errors, aborts = _click_exception_types()
+        if isinstance(exc, click_errors):
             exc.show()
             sys.exit(exc.exit_code)
-        if isinstance(exc, tuple(aborts)):
+        if isinstance(exc, aborts):
             typer.echo("aborted", err=True)
             sys.exit(1)
         raise
