@@ -227,6 +227,25 @@ def test_sizeset_duck_typing_and_meta():
     np.testing.assert_array_equal(again.positions, pk.positions)
 
 
+def test_result_does_not_depend_on_the_clock(monkeypatch):
+    """Same seed, same pack whether the machine is idle or loaded: chunk boundaries
+    (full synchronisations) are set by collision counts, not by the measured rate."""
+    from polypack.generate import lubachevsky as lub
+
+    radii = np.where(np.arange(400) < 40, 3.0, 1.0)
+    opts = dict(chunk_collisions=20_000, growth_rate=0.005)
+    ref = pp.pack(radii, 0.55, seed=4, **opts)
+    assert ref.meta["collisions"] > 3 * 20_000  # several chunks
+
+    real = lub.time.perf_counter
+    for slow in (1e-3, 1e3):  # a clock that runs 1000x fast or slow
+        monkeypatch.setattr(lub.time, "perf_counter", lambda s=slow: real() * s)
+        pk = pp.pack(radii, 0.55, seed=4, **opts)
+        np.testing.assert_array_equal(pk.positions, ref.positions)
+        assert pk.meta["collisions"] == ref.meta["collisions"]
+    monkeypatch.undo()
+
+
 def test_budgets():
     pk = pp.pack(np.ones(300), 0.6, seed=1, max_collisions=5000)
     assert pk.meta["status"] == "collision_budget"
@@ -269,7 +288,7 @@ def test_error_below_continuation_fraction():
 
 
 def test_time_budget_and_interrupt(monkeypatch):
-    pk = pp.pack(np.ones(2000), "jammed", seed=1, max_seconds=0.3, chunk_seconds=0.05)
+    pk = pp.pack(np.ones(2000), "jammed", seed=1, max_seconds=0.3, chunk_collisions=20000)
     assert pk.meta["status"] == "time_budget"
     assert pk.min_gap() >= 0.0
 
@@ -284,7 +303,7 @@ def test_time_budget_and_interrupt(monkeypatch):
         return out
 
     monkeypatch.setattr(edmd, "run_chunk", interrupting)
-    pk = pp.pack(np.ones(300), 0.6, seed=1, chunk_seconds=0.01)
+    pk = pp.pack(np.ones(300), 0.6, seed=1, chunk_collisions=2000)
     assert pk.meta["status"] == "interrupted"
     assert pk.volume_fraction < 0.6
     assert pk.min_gap() >= 0.0

@@ -9,10 +9,8 @@ or on a Dask worker.
 
 from __future__ import annotations
 
-import contextlib
 import inspect
 import math
-import threading
 
 import numpy as np
 
@@ -20,43 +18,6 @@ from .._util import seed_from_record, seed_record
 from ..errors import InvalidInputError
 
 __all__ = ["make_sizes", "make_packing", "run_analyses", "realize", "stage_seeds", "check_available", "preflight"]
-
-# The packer synchronises (and rescales velocities) at chunk boundaries, and sizes its
-# chunks from the measured collision rate, so its trajectory depends on the machine load.
-# A realization must not: the runner asks for chunks that do not depend on the wall clock
-# (the first chunk has a fixed collision count, the next one is large enough to finish).
-# Cost: Ctrl-C and max_seconds act only at the end of a pack.
-_DETERMINISTIC_PACK = {"chunk_seconds": 1e9}
-_det_lock = threading.Lock()
-_det_depth = [0, None]
-
-
-@contextlib.contextmanager
-def deterministic_packing():
-    """Within the block, :func:`polypack.pack` uses wall-clock-independent chunks.
-
-    Needed for :func:`polypack.scrm`, which calls ``pack`` without passing options
-    through.  Reference-counted, so concurrent realizations in threads are safe.
-    """
-    from ..generate import lubachevsky as lub
-
-    defaults = getattr(lub, "_DEFAULTS", None)
-    if not isinstance(defaults, dict) or "chunk_seconds" not in defaults:
-        yield
-        return
-    with _det_lock:
-        if _det_depth[0] == 0:
-            _det_depth[1] = defaults["chunk_seconds"]
-            defaults["chunk_seconds"] = _DETERMINISTIC_PACK["chunk_seconds"]
-        _det_depth[0] += 1
-    try:
-        yield
-    finally:
-        with _det_lock:
-            _det_depth[0] -= 1
-            if _det_depth[0] == 0:
-                defaults["chunk_seconds"] = _det_depth[1]
-
 
 def stage_seeds(seed_rec):
     """Independent child seeds of one realization: ``(sizes, protocol, analysis)``."""
@@ -222,10 +183,8 @@ def make_packing(sizes, protocol: dict, seed):
             if sched[-1] < pr["volume_fraction"]:
                 sched.append(pr["volume_fraction"])
             kw["schedule"] = sched
-        with deterministic_packing():
-            return pp.scrm(sizes, volume_fraction=pr["volume_fraction"], seed=s_pack, progress=False, **kw)
-    with deterministic_packing():
-        pk = pp.pack(sizes, pr["volume_fraction"], seed=s_pack, progress=False, **grow)
+        return pp.scrm(sizes, volume_fraction=pr["volume_fraction"], seed=s_pack, progress=False, **kw)
+    pk = pp.pack(sizes, pr["volume_fraction"], seed=s_pack, progress=False, **grow)
     if m > 0:
         pk = pp.shake(pk, global_shakes=m, seed=s_shake, progress=False, **_shake_options(pr))
     return pk

@@ -28,7 +28,7 @@ _DEFAULTS = dict(
     pressure_window=None,
     skin=None,
     dilute_skin=None,
-    chunk_seconds=0.5,
+    chunk_collisions=None,
     jammed_reference_fraction=0.5,
     max_events=None,
     sync_every=None,
@@ -144,7 +144,9 @@ def pack(
         (collisions per pressure estimate, default ``N``), ``skin`` (neighbour shell
         margin as a fraction of the radius; default 0.25, or 0.6 when the size ratio
         is 5 or more, where the mobile fines make shell exits the main cost),
-        ``dilute_skin`` (the same at the start of the run, default ``skin``), ``chunk_seconds`` (0.5),
+        ``dilute_skin`` (the same at the start of the run, default ``skin``), ``chunk_collisions``
+        (collisions per compiled call between progress updates and budget or Ctrl-C checks,
+        default ``20N`` clipped to [2e5, 1e7]; the trajectory depends on it, never on the clock),
         ``jammed_reference_fraction`` (0.5), ``max_events``, ``sync_every`` (collisions
         between full synchronisations with kinetic-energy reset, default ``4N``),
         ``margin_cap`` (shell margin of a large sphere at most this many times the
@@ -290,7 +292,15 @@ def pack(
     state[0] = t0
     hist_rows = []
     status = "running"
-    chunk = max(2 * n, 20000)
+    # Chunks of a fixed collision count: each chunk starts with a full synchronisation
+    # (kinetic-energy reset), so sizing them from the measured rate would make the
+    # trajectory depend on the machine load.  Same seed, same pack, on any machine.
+    if opt["chunk_collisions"] is None:
+        chunk = int(min(max(20 * n, 200_000), 10_000_000))
+    else:
+        chunk = int(opt["chunk_collisions"])
+        if chunk < 1:
+            raise InvalidInputError(f"chunk_collisions={opt['chunk_collisions']!r}: must be a positive integer")
     max_events = opt["max_events"]
     t_begin_chunks = time.perf_counter()
     bar = progress_bar(total=None, desc="pack", progress=progress, unit="coll")
@@ -328,8 +338,6 @@ def pack(
                 last_p = row[1]
             done = state[1] - c0
             rate = done / dtc if dtc > 0 else 0.0
-            if rate > 0:
-                chunk = int(min(max(rate * float(opt["chunk_seconds"]), 2 * n, 1000), 5e7))
             bar.update(int(done))
             bar.set_postfix(phi=f"{phi_at(state[0]):.5f}", p=f"{last_p:.4g}", rate=f"{rate:.3g}/s")
             if interrupted:
