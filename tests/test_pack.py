@@ -174,6 +174,24 @@ def test_reduced_pressure_matches_carnahan_starling():
     assert carnahan_starling(0.45) > 9
 
 
+def test_fast_start_leaves_an_equilibrium_fluid():
+    """The dilute start grows 10x faster up to φ=0.3; soon after, at the requested slow
+    rate, the pressure is the equilibrium (Carnahan–Starling) one again."""
+    pk = pp.pack(np.ones(500), 0.6, seed=7, growth_rate=0.01)
+    assert pk.meta["fast_start"] == {"growth_factor": 10.0, "until_fraction": 0.3}
+    h = np.array(pk.meta["pressure_history"])
+    assert h[0, 0] >= 0.3  # no record of the fast start
+    sel = (h[:, 0] > 0.3) & (h[:, 0] < 0.36)
+    assert sel.sum() > 20
+    ratio = np.mean(h[sel, 1] / carnahan_starling(h[sel, 0]))
+    assert abs(ratio - 1.0) < 0.025, ratio  # measured +0.9 %, as without the fast start
+    # at most half the target; switched off with fast_growth=1
+    assert pp.pack(np.ones(200), 0.2, seed=1).meta["fast_start"]["until_fraction"] == 0.1
+    assert pp.pack(np.ones(200), 0.2, seed=1, fast_growth=1).meta["fast_start"] is None
+    with pytest.raises(pp.InvalidInputError, match="fast_growth"):
+        pp.pack(np.ones(200), 0.2, fast_growth=0.5)
+
+
 def test_jamming_density_monodisperse_fast():
     pk = pp.pack(np.ones(500), "jammed", seed=5, growth_rate=0.02)
     assert pk.meta["status"] == "jammed"

@@ -435,8 +435,8 @@ def kinetic_energy(v):
 
 
 @njit(cache=True)
-def _thermalise(v):
-    """Remove net momentum and rescale to kinetic energy 3N/2 (kT = 1, m = 1)."""
+def _thermalise(v, speed=1.0):
+    """Remove net momentum and rescale to kinetic energy ``3N speed^2 / 2`` (kT = speed^2, m = 1)."""
     n = v.shape[0]
     for k in range(3):
         s = 0.0
@@ -447,7 +447,7 @@ def _thermalise(v):
             v[i, k] -= s
     ke = kinetic_energy(v)
     if ke > 0.0:
-        f = math.sqrt(1.5 * n / ke)
+        f = speed * math.sqrt(1.5 * n / ke)
         for i in range(n):
             for k in range(3):
                 v[i, k] *= f
@@ -527,11 +527,13 @@ def run_chunk(x, v, g, box, state, params, hist):
     state : (8,) float64, in/out
         ``[t, collisions, events, rebuilds, virial_sum, ke_time_integral,
         local_rebuilds, status]`` (counts accumulate across chunks).
-    params : (10,) float64
+    params : (10,) or (11,) float64
         ``[t_stop, max_collisions_this_chunk, max_pressure, pressure_window,
-        t_ref, alpha, max_events_this_chunk, sync_every, dilute, margin_cap]``
-        (shell widths: :func:`shell_reach`, :func:`_shell_radius` with
-        ``g_margin = margin_cap * median(g)``).
+        t_ref, alpha, max_events_this_chunk, sync_every, dilute, margin_cap,
+        speed]`` (shell widths: :func:`shell_reach`, :func:`_shell_radius` with
+        ``g_margin = margin_cap * median(g)``; ``speed``, default 1, is the thermal
+        speed the velocities are rescaled to at each synchronisation: a speed ``s``
+        makes the growth per distance travelled ``1/s`` times faster).
     hist : (H, 3) float64
         Output rows ``(t, reduced pressure, window collisions)``, one per window.
 
@@ -568,6 +570,7 @@ def run_chunk(x, v, g, box, state, params, hist):
     alpha = params[5]
     max_events = int(params[6])
     sync_every = int(params[7])
+    speed = params[10] if params.shape[0] > 10 else 1.0
     if sync_every <= 0:
         sync_every = 4 * n
 
@@ -611,7 +614,7 @@ def run_chunk(x, v, g, box, state, params, hist):
             ke = kinetic_energy(v)
             w_ke += ke * (t - t_last)
             t_last = t
-            _thermalise(v)
+            _thermalise(v, speed)
             ke = kinetic_energy(v)
             since_sync = 0
             if need_rebuild:
