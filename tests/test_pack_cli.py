@@ -29,6 +29,9 @@ def test_cli_pack_writes_file(tmp_path, capsys):
     main(["pack", str(out), "--volume-fraction", "0.55", "--seed", "4", "-o", str(out2)])
     pk2 = io.read(out2)
     assert pk2.volume_fraction == pytest.approx(0.55, rel=1e-9)
+    # one growth rate throughout
+    main(["pack", "--n", "200", "--volume-fraction", "0.5", "--fast-growth", "1", "-o", str(out2)])
+    assert io.read(out2).meta["fast_start"] is None
 
 
 def test_cli_pack_size_csv(tmp_path, capsys):

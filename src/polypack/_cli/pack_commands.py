@@ -97,6 +97,10 @@ def register(app: typer.Typer) -> None:
         volume_fraction: str = typer.Option("0.6", "--volume-fraction", "-c", help="Target fraction or 'jammed'."),
         seed: Optional[int] = typer.Option(None, "--seed", help="Random seed (recorded in the output)."),
         growth_rate: Optional[float] = typer.Option(None, "--growth-rate", help="Dimensionless growth rate Γ."),
+        fast_growth: float = typer.Option(
+            10.0, "--fast-growth",
+            help="Growth this many times faster below volume fraction 0.3 (the dilute start); 1 = one rate throughout.",
+        ),
         max_seconds: Optional[float] = typer.Option(None, "--max-seconds", help="Wall-clock budget."),
         max_collisions: Optional[int] = typer.Option(None, "--max-collisions", help="Collision budget."),
         output: Optional[Path] = typer.Option(None, "--output", "-o", help="Output file (.gsd, .xyz, .data, .csv, .vtp)."),
@@ -125,7 +129,9 @@ def register(app: typer.Typer) -> None:
                 src = io.read(sizes)
         else:
             src, species = sizes_from_options(n, radius, size_ratio, volume_ratio)
-        kw = {} if species is None else {"species": species}
+        kw = {"fast_growth": fast_growth}
+        if species is not None:
+            kw["species"] = species
         pk = pack(src, vf, seed=seed, growth_rate=growth_rate, max_seconds=max_seconds,
                   max_collisions=max_collisions, progress=progress, **kw)
         m = pk.meta
