@@ -90,6 +90,21 @@ def test_next_event_agrees_with_brute_force_oracle():
         assert checked >= 20
 
 
+@pytest.mark.parametrize("n", [1, 2, 5, 17, 200])
+def test_event_queue_root_is_the_earliest_after_any_updates(n):
+    """The 4-ary indexed heap: root = argmin of the keys, positions consistent, after random updates."""
+    rng = np.random.default_rng(n)
+    key = rng.random(n)
+    hk, hi, hpos = np.empty(n), np.empty(n, np.int64), np.empty(n, np.int64)
+    edmd._heap_build(hk, hi, hpos, key, n)
+    for step in range(500):
+        assert hk[0] == key.min() and key[hi[0]] == key.min()
+        assert np.array_equal(hi[hpos], np.arange(n)) and np.array_equal(hk, key[hi])
+        i = hi[0] if step % 2 else rng.integers(n)  # the root (as after an event) or any sphere
+        key[i] = key[i] + rng.normal() if step % 3 else np.inf
+        edmd._heap_update(hk, hi, hpos, i, key[i], n)
+
+
 # ------------------------------------------------------------------ no overlaps
 def _bidisperse(n_large, n_small, ratio):
     r = np.r_[np.full(n_large, 1.0), np.full(n_small, 1.0 / ratio)]

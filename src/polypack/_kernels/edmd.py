@@ -13,8 +13,10 @@ Data layout (flat arrays, C-like):
   (minimum image for every separation, so there is no drift of periodic images);
 * ``v`` (N,3) velocities; ``cnt[i]`` collision counter for invalidation;
 * one scheduled event per sphere (``ev_t``, ``ev_p`` partner or -1 for a shell
-  exit, ``ev_c`` partner counter at prediction time) in an indexed binary
-  min-heap;
+  exit, ``ev_c`` partner counter at prediction time) in an indexed 4-ary
+  min-heap whose slots hold the event times themselves (``hk``, sphere ``hi``,
+  slot of a sphere ``hpos``): the four children of a slot share a cache line
+  and a sift never chases a pointer to read a key;
 * per-sphere shells: sphere ``i`` stays inside the ball ``(xb_i, rho_i)`` until
   its shell-exit event (exact time from a quadratic), with ``rho_i = g_i D(t)``
   at the build time ``t`` (a margin proportional to the radius, see
@@ -103,46 +105,74 @@ def exit_time(d0, d1, d2, v0, v1, v2, g, r0):
 
 
 @njit(cache=True)
-def _sift_up(heap, hpos, key, k):
-    i = heap[k]
-    ki = key[i]
+def _sift_up(hk, hi, hpos, k):
+    """Move heap slot ``k`` towards the root (4-ary min-heap, keys stored inline)."""
+    key = hk[k]
+    idx = hi[k]
     while k > 0:
-        p = (k - 1) >> 1
-        j = heap[p]
-        if key[j] <= ki:
+        p = (k - 1) >> 2
+        kp = hk[p]
+        if kp <= key:
             break
-        heap[k] = j
+        hk[k] = kp
+        j = hi[p]
+        hi[k] = j
         hpos[j] = k
         k = p
-    heap[k] = i
-    hpos[i] = k
+    hk[k] = key
+    hi[k] = idx
+    hpos[idx] = k
 
 
 @njit(cache=True)
-def _sift_down(heap, hpos, key, k, n):
-    i = heap[k]
-    ki = key[i]
+def _sift_down(hk, hi, hpos, k, n):
+    """Move heap slot ``k`` towards the leaves (4-ary min-heap, keys stored inline)."""
+    key = hk[k]
+    idx = hi[k]
     while True:
-        c = 2 * k + 1
+        c = 4 * k + 1
         if c >= n:
             break
-        if c + 1 < n and key[heap[c + 1]] < key[heap[c]]:
-            c += 1
-        j = heap[c]
-        if key[j] >= ki:
+        best = c
+        bk = hk[c]
+        e = min(c + 4, n)
+        for q in range(c + 1, e):
+            kq = hk[q]
+            if kq < bk:
+                bk = kq
+                best = q
+        if bk >= key:
             break
-        heap[k] = j
+        hk[k] = bk
+        j = hi[best]
+        hi[k] = j
         hpos[j] = k
-        k = c
-    heap[k] = i
-    hpos[i] = k
+        k = best
+    hk[k] = key
+    hi[k] = idx
+    hpos[idx] = k
 
 
 @njit(cache=True)
-def _heap_update(heap, hpos, key, i, n):
+def _heap_update(hk, hi, hpos, i, key, n):
+    """Set the key of sphere ``i`` and restore the heap order."""
     k = hpos[i]
-    _sift_up(heap, hpos, key, k)
-    _sift_down(heap, hpos, key, hpos[i], n)
+    old = hk[k]
+    hk[k] = key
+    if key < old:
+        _sift_up(hk, hi, hpos, k)
+    else:
+        _sift_down(hk, hi, hpos, k, n)
+
+
+@njit(cache=True)
+def _heap_build(hk, hi, hpos, key, n):
+    for i in range(n):
+        hk[i] = key[i]
+        hi[i] = i
+        hpos[i] = i
+    for k in range((n - 2) // 4, -1, -1):
+        _sift_down(hk, hi, hpos, k, n)
 
 
 @njit(cache=True)
@@ -579,7 +609,8 @@ def run_chunk(x, v, g, box, state, params, hist):
     ev_t = np.empty(n)
     ev_p = np.empty(n, np.int64)
     ev_c = np.empty(n, np.int64)
-    heap = np.empty(n, np.int64)
+    hk = np.empty(n)
+    hi = np.empty(n, np.int64)
     hpos = np.empty(n, np.int64)
     xb = np.empty((n, 3))
     rho = np.empty(n)
@@ -638,10 +669,7 @@ def run_chunk(x, v, g, box, state, params, hist):
                 cnt[i] = 0
             for i in range(n):
                 _predict(i, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
-                heap[i] = i
-                hpos[i] = i
-            for k in range(n // 2 - 1, -1, -1):
-                _sift_down(heap, hpos, ev_t, k, n)
+            _heap_build(hk, hi, hpos, ev_t, n)
             need_rebuild = False
             need_sync = False
 
@@ -652,8 +680,8 @@ def run_chunk(x, v, g, box, state, params, hist):
             status = EVENT_BUDGET
             break
 
-        i = heap[0]
-        te = ev_t[i]
+        i = hi[0]
+        te = hk[0]
         if te >= t_stop:
             w_ke += ke * (t_stop - t_last)
             t_last = t_stop
@@ -682,11 +710,11 @@ def run_chunk(x, v, g, box, state, params, hist):
                 need_rebuild = True
                 continue
             _predict(i, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
-            _heap_update(heap, hpos, ev_t, i, n)
+            _heap_update(hk, hi, hpos, i, ev_t[i], n)
             continue
         if cnt[j] != ev_c[i]:
             _predict(i, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
-            _heap_update(heap, hpos, ev_t, i, n)
+            _heap_update(hk, hi, hpos, i, ev_t[i], n)
             continue
         # valid collision of i and j at time t
         for p in (i, j):
@@ -723,9 +751,9 @@ def run_chunk(x, v, g, box, state, params, hist):
         w_coll += 1
         since_sync += 1
         _predict(i, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
-        _heap_update(heap, hpos, ev_t, i, n)
+        _heap_update(hk, hi, hpos, i, ev_t[i], n)
         _predict(j, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
-        _heap_update(heap, hpos, ev_t, j, n)
+        _heap_update(hk, hi, hpos, j, ev_t[j], n)
         if since_sync >= sync_every:
             need_sync = True
         if w_coll >= window:
