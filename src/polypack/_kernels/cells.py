@@ -140,6 +140,21 @@ def _pair_distance(pos, radii, box, a, b, i, j):
 
 
 @njit(cache=True)
+def owner_rank(radii):
+    """Rank of each sphere in the pair-ownership order of :func:`_larger`.
+
+    ``rank[i] > rank[j]`` exactly when sphere ``i`` owns pair (i, j) (larger radius,
+    ties by index): one integer comparison per candidate in the inner loops.
+    """
+    n = radii.shape[0]
+    order = np.argsort(radii, kind="mergesort")  # stable: equal radii stay in index order
+    rank = np.empty(n, np.int64)
+    for k in range(n):
+        rank[order[k]] = k
+    return rank
+
+
+@njit(cache=True)
 def _fill_pairs(pos, radii, box, a, b, ncell, cell_of, start, order, pi, pj, pd):
     """Store the pairs of :func:`pairs_within` into preallocated buffers.
 
@@ -150,20 +165,30 @@ def _fill_pairs(pos, radii, box, a, b, ncell, cell_of, start, order, pi, pj, pd)
     m = 0
     cl = cell_lengths(box, ncell)
     visit = np.empty(start.shape[0] - 1, np.int64)
+    rank = owner_rank(radii)
     for i in range(pos.shape[0]):
         nv = cells_in_reach(cell_of[i], 2.0 * a * radii[i] + b, cl, ncell, visit)
+        rank_i = rank[i]
+        xi0 = pos[i, 0]
+        xi1 = pos[i, 1]
+        xi2 = pos[i, 2]
+        ri = radii[i]
         for q in range(nv):
             c = visit[q]
             for s in range(start[c], start[c + 1]):
                 j = order[s]
-                if j == i or not _larger(i, j, radii):
+                if rank[j] >= rank_i:  # pair owned by j (or j == i)
                     continue
-                d = _pair_distance(pos, radii, box, a, b, i, j)
-                if d >= 0.0:
+                dx = min_image(pos[j, 0] - xi0, box[0])
+                dy = min_image(pos[j, 1] - xi1, box[1])
+                dz = min_image(pos[j, 2] - xi2, box[2])
+                d2 = dx * dx + dy * dy + dz * dz
+                lim = a * (ri + radii[j]) + b
+                if d2 <= lim * lim:
                     if m < cap:
                         pi[m] = i
                         pj[m] = j
-                        pd[m] = d
+                        pd[m] = np.sqrt(d2)
                     m += 1
     return m
 
