@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .cells import _larger, build_cells, cell_lengths, cells_in_reach, min_image, separation2
+from .cells import build_cells, cell_lengths, cells_in_reach, min_image, owner_rank, separation2
 
 
 @njit(cache=True)
@@ -52,6 +52,7 @@ def pair_histogram(pos, radii, species, box, nspecies, x_max, nbins, scaled, nce
     cell_of, start, order = build_cells(pos, box, ncell)
     cl = cell_lengths(box, ncell)
     visit = np.empty(start.shape[0] - 1, np.int64)
+    rank = owner_rank(radii)
     h = x_max / nbins
     inv_h = 1.0 / h
     for i in range(n):
@@ -60,12 +61,13 @@ def pair_histogram(pos, radii, species, box, nspecies, x_max, nbins, scaled, nce
         else:
             reach = x_max
         si = species[i]
+        rank_i = rank[i]
         nv = cells_in_reach(cell_of[i], reach, cl, ncell, visit)
         for q in range(nv):
             c = visit[q]
             for s in range(start[c], start[c + 1]):
                 j = order[s]
-                if j == i or not _larger(i, j, radii):
+                if rank[j] >= rank_i:  # pair owned by j (or j == i)
                     continue
                 d = np.sqrt(separation2(pos, i, j, box))
                 if scaled:
