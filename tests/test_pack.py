@@ -366,3 +366,13 @@ def test_pack_accepts_psd_sizeset():
 
 def test_kernel_warmup_runs():
     edmd.warmup()
+
+
+def test_default_skin_follows_the_volume_weighted_size():
+    from polypack.generate.lubachevsky import default_skin
+
+    assert default_skin(np.ones(10)) == 0.25
+    assert default_skin(np.r_[np.full(168, 1.0), np.full(1832, 0.313)]) == pytest.approx(0.6)  # seed 000
+    assert default_skin(np.r_[np.full(107, 3.0), np.ones(2893)]) == pytest.approx(0.5, abs=0.01)
+    # a few coarse spheres holding little volume leave the margin of the fines alone
+    assert default_skin(np.r_[np.full(2, 3.0), np.ones(2000)]) == pytest.approx(0.25, abs=0.02)

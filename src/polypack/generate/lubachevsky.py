@@ -42,6 +42,25 @@ _STATUS = {0: "running", 1: "target", 2: "jammed", 3: "box_limit", 4: "event_bud
 _SPHERE = 4.0 / 3.0 * math.pi
 
 
+def default_skin(radii):
+    """Default shell margin of :func:`pack`, as a fraction of each sphere's radius.
+
+    ``0.25 * clip(r_V / r_med, 1, 2.4)`` with ``r_V = sum(r^4) / sum(r^3)`` the
+    volume-weighted mean radius and ``r_med`` the median radius.  Margins are
+    proportional to the radius, but the fines of a mixture move through gaps set by
+    the coarse spheres that hold most of the volume, so their thin shells would be
+    left (and rebuilt) after every few collisions.  Equal spheres get 0.25; seed
+    000's bimodal pack (``r_V / r_med = 2.6``) and a half-volume mixture of diameter
+    ratio 10 get 0.6, half-volume ratio 3 gets 0.5.  Measured wall times (this
+    machine): seed 000 to c = 0.6, 0.76 s at 0.25 vs 0.58 s at 0.6; ratio 3,
+    N = 3000, jammed, 7.6 s vs 5.8 s; equal spheres, N = 1e4 to 0.64, 11.5 s at
+    0.25, 11.8 s at 0.4, 16.6 s at 0.6.  Only the speed depends on it.
+    """
+    r = np.asarray(radii, dtype=np.float64)
+    r_v = float(np.sum(r**4) / np.sum(r**3))
+    return 0.25 * min(max(r_v / float(np.median(r)), 1.0), 2.4)
+
+
 def carnahan_starling(volume_fraction):
     """Carnahan–Starling compressibility factor ``Z = (1+η+η²−η³)/(1−η)³`` of the hard-sphere fluid."""
     eta = np.asarray(volume_fraction, dtype=np.float64)
@@ -144,8 +163,9 @@ def pack(
         ``species`` (with an array of radii), ``max_pressure`` (jamming threshold on
         the reduced pressure ``Z = PV/(NkT)``, default 1e6), ``pressure_window``
         (collisions per pressure estimate, default ``N``), ``skin`` (neighbour shell
-        margin as a fraction of the radius; default 0.25, or 0.6 when the size ratio
-        is 5 or more, where the mobile fines make shell exits the main cost),
+        margin as a fraction of the radius; default :func:`default_skin`: 0.25 for
+        equal spheres, up to 0.6 when most of the volume is in spheres much larger than
+        the median one, whose mobile fines make shell exits the main cost),
         ``dilute_skin`` (the same at the start of the run, default ``skin``), ``chunk_collisions``
         (collisions per compiled call between progress updates and budget or Ctrl-C checks,
         default ``20N`` clipped to [2e5, 1e7]; the trajectory depends on it, never on the clock),
@@ -233,8 +253,7 @@ def pack(
         raise InvalidInputError(f"max_pressure={p_max}: must be > 3")
     if not float(opt["margin_cap"]) > 0:
         raise InvalidInputError(f"margin_cap={opt['margin_cap']}: must be > 0")
-    wide = float(radii.max() / radii.min()) >= 5.0
-    skin = float(opt["skin"] if opt["skin"] is not None else (0.6 if wide else 0.25))
+    skin = float(opt["skin"] if opt["skin"] is not None else default_skin(radii))
     if not (0.0 < skin <= 5.0):
         raise InvalidInputError(f"skin={skin}: must be in (0, 5]")
     dilute_skin = float(opt["dilute_skin"] if opt["dilute_skin"] is not None else skin)
