@@ -167,6 +167,7 @@ def _heap_update(hk, hi, hpos, i, key, n):
 
 @njit(cache=True)
 def _heap_build(hk, hi, hpos, key, n):
+    """Heap of spheres ``0..n-1`` keyed by ``key`` (bottom-up, O(n))."""
     for i in range(n):
         hk[i] = key[i]
         hi[i] = i
