@@ -56,12 +56,13 @@ __all__ = [
     "analysis",
     "generate",
     "neighbors",
+    "mechanics",
     "__version__",
 ]
 
 # Lazy attributes: subpackages and generator functions are imported on first use, so
 # ``import polypack`` stays fast and numba kernels compile only when needed.
-_LAZY_MODULES = {"io", "psd", "analysis", "generate", "neighbors", "ensemble", "study"}
+_LAZY_MODULES = {"io", "psd", "analysis", "generate", "neighbors", "ensemble", "study", "mechanics"}
 _LAZY_FUNCS = {
     "pack": ("polypack.generate.lubachevsky", "pack"),
     "shake": ("polypack.generate.shake", "shake"),

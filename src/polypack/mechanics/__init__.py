@@ -1,0 +1,27 @@
+"""Mechanics of packs: bonded contact networks, their exact elastic tensor, DEM, effective moduli.
+
+Implements the bonded-particle model of §2.1 of 003_873b69fc71c74cf6.txt. Attributes are
+imported lazily so ``import polypack.mechanics`` stays cheap.
+"""
+
+from __future__ import annotations
+
+from importlib import import_module as _import_module
+
+# name -> submodule; each helper adds its own lines (keep edits small).
+_LAZY = {
+    "BondNetwork": "network",
+    "series_stiffness": "network",
+}
+
+__all__ = sorted(_LAZY)
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        return getattr(_import_module(f"{__name__}.{_LAZY[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))
