@@ -12,6 +12,13 @@ from importlib import import_module as _import_module
 _LAZY = {
     "BondNetwork": "network",
     "series_stiffness": "network",
+    # effective moduli (t18): pure functions of phases and statistics
+    "Phase": "effective",
+    "dilute": "effective",
+    "mori_tanaka": "effective",
+    "hashin_shtrikman": "effective",
+    "self_consistent": "effective",
+    "three_point_bounds": "effective",
 }
 
 __all__ = sorted(_LAZY)
