@@ -95,7 +95,7 @@ def test_positions_are_wrapped():
 @pytest.mark.parametrize(
     "kwargs, match",
     [
-        (dict(positions=np.zeros((3, 2)), radii=[1, 1, 1], box=10), "shape"),
+        (dict(positions=np.zeros((3, 4)), radii=[1, 1, 1], box=10), "shape"),
         (dict(positions=np.zeros((2, 3)), radii=[1, 1, 1], box=10), "match"),
         (dict(positions=[[0, 0, np.nan]], radii=[1], box=10), "finite"),
         (dict(positions=[[0, 0, np.inf]], radii=[1], box=10), "finite"),
@@ -105,7 +105,7 @@ def test_positions_are_wrapped():
         (dict(positions=[[0, 0, 0]], radii=[1.0], box=[10, 0, 10]), "box lengths"),
         (dict(positions=[[0, 0, 0]], radii=[1.0], box=[10, 10]), "box"),
         (dict(positions=[[0, 0, 0]], radii=[1.0], box=[10, np.nan, 10]), "box lengths"),
-        (dict(positions=[[0, 0, 0]], radii=[3.0], box=10), "half the smallest box"),
+        (dict(positions=[[0, 0, 0]], radii=[3.0], box=10), "half the smallest periodic box"),
         (dict(positions=[[0, 0, 0]], radii=[1.0], box=10, species=[0.5]), "integer"),
         (dict(positions=[[0, 0, 0]], radii=[1.0], box=10, species=["a"]), "integers"),
         (dict(positions=[[0, 0, 0]], radii=[1.0], box=10, species=[-1]), ">= 0"),

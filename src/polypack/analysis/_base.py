@@ -34,12 +34,24 @@ SCALES = ("distance", "contact")
 NORMALIZATIONS = ("finite_size", "seed")
 
 
-def check_packing(packing, min_n=1, what="analysis"):
-    """Return ``packing`` if it is a :class:`~polypack.Packing` with at least ``min_n`` spheres."""
+def check_packing(packing, min_n=1, what="analysis", dims=(3,), walls=False):
+    """Return ``packing`` if it is a :class:`~polypack.Packing` with at least ``min_n`` spheres.
+
+    ``dims`` are the space dimensions the caller supports and ``walls`` whether it
+    supports non-periodic axes; other packings get an :class:`InvalidInputError`.
+    """
     if not isinstance(packing, Packing):
         raise InvalidInputError(
             f"{what} needs a polypack.Packing, got {type(packing).__name__}; "
             "build one with polypack.Packing(positions, radii, box)"
+        )
+    if packing.dim not in dims:
+        raise InvalidInputError(
+            f"{what} supports {' and '.join(f'{d}D' for d in dims)} packings only; got a {packing.dim}D packing"
+        )
+    if not walls and not packing.fully_periodic:
+        raise InvalidInputError(
+            f"{what} needs a box periodic on every axis; got periodic={packing.periodic}"
         )
     if packing.n < min_n:
         raise InvalidInputError(f"{what} needs a pack with at least {min_n} spheres, got {packing.n}")

@@ -71,10 +71,12 @@ class Contacts(Estimator):
 
     def compute(self, packing, reset=True):
         """Find all contacts of ``packing``; returns ``self``."""
-        check_packing(packing, min_n=1, what="Contacts")
+        check_packing(packing, min_n=1, what="Contacts", dims=(2, 3), walls=True)
         if reset:
             self.reset()
-        i, j, d = pairs_within(packing.positions, packing.radii, packing.box, a=1.0 + self.tolerance, b=0.0)
+        i, j, d = pairs_within(
+            packing.positions, packing.radii, packing.box, a=1.0 + self.tolerance, b=0.0, periodic=packing.periodic
+        )
         s = packing.radii[i] + packing.radii[j]
         keep = d <= (1.0 + self.tolerance) * s
         i, j, d, s = i[keep], j[keep], d[keep], s[keep]
@@ -106,7 +108,7 @@ class Contacts(Estimator):
                 "j": j,
                 "d": d,
                 "gaps": d / s - 1.0,
-                "branch": minimum_image(packing.positions[j] - packing.positions[i], packing.box),
+                "branch": minimum_image(packing.positions[j] - packing.positions[i], packing.box, packing.periodic),
             }
         )
         return self

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..geometry import ball_volume
 from ._base import PairCountEstimator, PairMap, to_jsonable
 from ._paircounts import pair_counts, pair_norms
 
@@ -97,7 +98,7 @@ class KFunction(PairCountEstimator):
     @property
     def poisson(self) -> np.ndarray:
         """``4 pi r^3 / 3``, K of a Poisson process at :attr:`r`."""
-        return 4.0 / 3.0 * np.pi * self.r**3
+        return ball_volume(self.r, 3)
 
     def to_dict(self) -> dict:
         self._require()

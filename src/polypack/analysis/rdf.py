@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InvalidInputError
+from ..geometry import shell_measure, shell_volume
 from ._base import PairCountEstimator, PairMap, check_packing, check_positive, to_jsonable
 from ._paircounts import pair_counts, pair_norms, species_radii
 
@@ -155,15 +156,15 @@ class RDF(PairCountEstimator):
         if self.method == "histogram":
             edges = np.arange(n + 1) * h
             r = 0.5 * (edges[:-1] + edges[1:])
-            vol = 4.0 / 3.0 * np.pi * (edges[1:] ** 3 - edges[:-1] ** 3)
+            vol = shell_volume(edges[:-1], edges[1:], 3)
             sel = [np.array([k]) for k in range(n)]
         elif self.method == "right":
             r = np.arange(1, n) * h
-            vol = 4.0 * np.pi * r**2 * h
+            vol = shell_measure(r, 3) * h
             sel = [np.array([k]) for k in range(1, n)]
         else:
             r = np.arange(1, n) * 2.0 * h
-            vol = 4.0 * np.pi * r**2 * (2.0 * h)
+            vol = shell_measure(r, 3) * (2.0 * h)
             sel = [np.array([2 * k - 1, 2 * k]) for k in range(1, n)]
         idx = np.stack(sel)
         return r, idx, vol
@@ -371,7 +372,7 @@ def contact_value(packing, pairs=None, width=0.05, n_bins=10, degree=1, return_e
     w, _ = pair_norms(packing, "contact", "finite_size")
     dens = w / packing.box_volume
     edges = 1.0 + np.linspace(0.0, width, n_bins + 1)
-    vol = 4.0 / 3.0 * np.pi * (edges[1:] ** 3 - edges[:-1] ** 3)
+    vol = shell_volume(edges[:-1], edges[1:], 3)
     centres = 0.5 * (edges[1:] + edges[:-1]) - 1.0
     values, errors = {}, {}
     for k, m in pairs:

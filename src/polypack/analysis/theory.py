@@ -25,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InvalidInputError
+from ..geometry import ball_volume
 
 __all__ = [
     "well_stirred",
@@ -204,7 +205,7 @@ def percus_yevick_mixture_contact(radii, volume_fractions):
         raise InvalidInputError("radii and volume_fractions must be 1-D arrays of the same length")
     if np.any(a <= 0) or np.any(cf < 0) or cf.sum() >= 1:
         raise InvalidInputError(f"radii {a.tolist()} must be > 0 and fractions {cf.tolist()} >= 0 with sum < 1")
-    n = cf / (4.0 / 3.0 * np.pi * a**3)
+    n = cf / ball_volume(a, 3)
     z2 = np.pi * 2.0 / 3.0 * np.sum(n * a**2)
     z3 = np.pi * 4.0 / 3.0 * np.sum(n * a**3)
     gii = (1 - z3 + 3 * a * z2) / (1 - z3) ** 2

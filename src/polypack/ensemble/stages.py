@@ -16,6 +16,7 @@ import numpy as np
 
 from .._util import seed_from_record, seed_record
 from ..errors import InvalidInputError
+from ..geometry import unit_ball_volume
 
 __all__ = ["make_sizes", "make_packing", "run_analyses", "realize", "stage_seeds", "check_available", "preflight"]
 
@@ -143,7 +144,7 @@ def preflight(study_data, seed_rec):
     if isinstance(vf, str):
         return
     r = np.asarray(sizes.radii, dtype=np.float64)
-    half = 0.5 * (4.0 / 3.0 * math.pi * float(np.sum(r**3)) / vf) ** (1.0 / 3.0)
+    half = 0.5 * (unit_ball_volume(3) * float(np.sum(r**3)) / vf) ** (1.0 / 3.0)
     for name in ("rdf", "kfunction"):
         opts = study_data.get("analysis", {}).get(name)
         if opts and opts["r_max"] > half:

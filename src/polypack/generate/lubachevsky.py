@@ -18,6 +18,7 @@ import numpy as np
 
 from .._util import as_seed_sequence, progress_bar, rng_from, seed_record
 from ..errors import InfeasibleError, InvalidInputError, OverlapError
+from ..geometry import unit_ball_volume
 from ..packing import Packing
 
 __all__ = ["pack", "carnahan_starling"]
@@ -39,7 +40,7 @@ _DEFAULTS = dict(
 
 _STATUS = {0: "running", 1: "target", 2: "jammed", 3: "box_limit", 4: "event_budget"}
 
-_SPHERE = 4.0 / 3.0 * math.pi
+_SPHERE = unit_ball_volume(3)
 
 
 def default_skin(radii):
@@ -71,6 +72,11 @@ def _parse_sizes(sizes, species):
     """Radii, species and (for a continuation) the starting Packing."""
     start = None
     if isinstance(sizes, Packing):
+        if sizes.dim != 3 or not sizes.fully_periodic:
+            raise InvalidInputError(
+                f"pack continues 3D fully periodic packings only; got a {sizes.dim}D packing with "
+                f"periodic={sizes.periodic}"
+            )
         start = sizes
         radii = np.array(sizes.radii, dtype=np.float64)
         sp = np.array(sizes.species, dtype=np.int64)
@@ -78,6 +84,10 @@ def _parse_sizes(sizes, species):
             raise InvalidInputError("species= cannot be given together with a Packing; the Packing's species are used")
         return radii, sp, start
     if hasattr(sizes, "radii"):
+        if getattr(sizes, "dim", 3) != 3:
+            raise InvalidInputError(
+                f"pack builds 3D sphere packs only; the sizes are for dim={sizes.dim} (no 2D generator here)"
+            )
         radii = np.array(sizes.radii, dtype=np.float64)
         sp = getattr(sizes, "species", None) if species is None else species
     else:

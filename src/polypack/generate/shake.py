@@ -206,6 +206,11 @@ def shake(
         raise InvalidInputError(
             f"shake needs a polypack.Packing, got {type(packing).__name__}; build one with polypack.Packing(...)"
         )
+    if packing.dim != 3 or not packing.fully_periodic:
+        raise InvalidInputError(
+            f"shake supports 3D fully periodic packings only; got a {packing.dim}D packing with "
+            f"periodic={packing.periodic}"
+        )
     if packing.n < 2:
         raise InvalidInputError(f"shake needs at least 2 spheres, got {packing.n}")
     if method not in _METHOD_CODE:

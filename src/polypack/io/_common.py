@@ -140,12 +140,32 @@ def parse_int(token: str, what: str, path) -> int:
         raise fail(path, f"{what} is {token[:40]!r}; expected an integer") from None
 
 
-def build_packing(path, positions, radii, box, species=None, meta=None) -> Packing:
+def build_packing(path, positions, radii, box, species=None, meta=None, periodic=None) -> Packing:
     """A Packing from file contents; invalid contents become a FormatError naming the file."""
     try:
-        return Packing(positions, radii, box, species=species, meta=meta)
+        return Packing(positions, radii, box, species=species, meta=meta, periodic=periodic)
     except InvalidInputError as exc:
         raise fail(path, f"invalid contents: {exc}") from None
+
+
+def pbc_text(packing: Packing) -> str:
+    """Extended-XYZ style flags ``"T T F"``: one per axis of 3D space (2D packs: third ``F``)."""
+    flags = list(packing.periodic) + [False] * (3 - packing.dim)
+    return " ".join("T" if f else "F" for f in flags)
+
+
+def parse_pbc(text: str, path) -> list[bool]:
+    """Inverse of :func:`pbc_text` (also accepts ``True``/``False``/``1``/``0``)."""
+    out = []
+    for tok in str(text).split():
+        t = tok.upper()
+        if t in ("T", "TRUE", "1"):
+            out.append(True)
+        elif t in ("F", "FALSE", "0"):
+            out.append(False)
+        else:
+            raise fail(path, f"periodic flags {text!r}: each must be T or F")
+    return out
 
 
 def format_rows(columns, formats, sep=" ") -> str:

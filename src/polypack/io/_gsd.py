@@ -9,6 +9,11 @@ Layout of a file written by polypack (one frame, double precision)::
     log/polypack/provenance  one-line JSON {"writer", "version", "meta"} (an OVITO attribute)
     log/polypack/box         (3,) float64 exact box lengths
     log/polypack/volume_fraction, log/polypack/n_species   scalars for a quick look in OVITO
+    log/polypack/periodic    (dim,) uint8 per-axis periodic flags (only when some axis has walls)
+
+2D packs (disks) are written as HOOMD 2D frames: ``configuration/dimensions = 2``, box
+``[Lx, Ly, 0, 0, 0, 0]``, positions with ``z = 0``, ``log/polypack/box`` of shape (2,).
+HOOMD boxes are periodic on every axis; wall axes are recorded in ``log/polypack/periodic``.
 
 Exactness. gsd stores ``configuration/box`` through float32, so the exact float64 box
 lives in ``log/polypack/box``; the float32 box is rounded *up* so every centred
@@ -52,17 +57,27 @@ def write(path, packing: Packing) -> None:
     import gsd.hoomd
 
     box = packing.box
+    dim = packing.dim
     frame = gsd.hoomd.Frame()
-    frame.configuration.box = np.concatenate([_box32_up(box), np.zeros(3)])
+    flags = np.array(packing.periodic)
+    pos = centre(packing.positions, box)  # also exact on wall axes, where 0 < x < L
+    if dim == 2:
+        frame.configuration.dimensions = 2
+        frame.configuration.box = np.concatenate([_box32_up(box), np.zeros(4)])
+        pos = np.column_stack([pos, np.zeros(packing.n)])
+    else:
+        frame.configuration.box = np.concatenate([_box32_up(box), np.zeros(3)])
     frame.particles.N = packing.n
     frame.particles.types = type_names(packing.n_species)
-    frame.particles.position = centre(packing.positions, box).reshape(packing.n, 3)
+    frame.particles.position = pos.reshape(packing.n, 3)
     frame.particles.diameter = 2.0 * packing.radii
     frame.particles.typeid = packing.species.astype(np.uint32)
     frame.log["polypack/provenance"] = provenance_json(packing)
     frame.log["polypack/box"] = np.array(box, dtype=np.float64)
     frame.log["polypack/volume_fraction"] = np.array([packing.volume_fraction])
     frame.log["polypack/n_species"] = np.array([packing.n_species], dtype=np.int64)
+    if not packing.fully_periodic:
+        frame.log["polypack/periodic"] = flags.astype(np.uint8)
     with atomic_path(path) as tmp:
         with gsd.hoomd.open(str(tmp), "w", precision="double") as traj:
             traj.append(frame)
@@ -89,6 +104,7 @@ def read_with_info(path, frame: int = -1) -> tuple[Packing, dict]:
             diam = np.asarray(snap.particles.diameter, dtype=np.float64).reshape(n)
             typeid = np.asarray(snap.particles.typeid).reshape(n).astype(np.int64)
             gbox = np.asarray(snap.configuration.box, dtype=np.float64).reshape(6)
+            dim = int(snap.configuration.dimensions)
             log = dict(snap.log)
     except FileNotFoundError:
         raise fail(path, "no such file") from None
@@ -101,14 +117,26 @@ def read_with_info(path, frame: int = -1) -> tuple[Packing, dict]:
         raise fail(path, f"not a readable GSD file ({detail}; empty, truncated or another format?)") from None
     if np.any(gbox[3:] != 0):
         raise fail(path, f"triclinic box tilts {gbox[3:].tolist()}; only orthorhombic boxes are allowed")
+    if dim not in (2, 3):
+        raise fail(path, f"configuration/dimensions is {dim}; allowed are 2 and 3")
     if "polypack/box" in log:
         box = np.asarray(log["polypack/box"], dtype=np.float64).reshape(-1)
-        if box.shape != (3,):
-            raise fail(path, f"log/polypack/box has shape {box.shape}, expected (3,)")
+        if box.shape != (dim,):
+            raise fail(path, f"log/polypack/box has shape {box.shape}, expected ({dim},)")
     else:
-        box = gbox[:3]
+        box = gbox[:dim]
     if np.any(box <= 0):
-        raise fail(path, f"box {box.tolist()} is not a 3-D periodic box (lengths must be > 0)")
+        raise fail(path, f"box {box.tolist()} is not a {dim}-D box (lengths must be > 0)")
+    if dim == 2:
+        if np.any(pos[:, 2] != 0):
+            raise fail(path, "a 2-D frame has particles with z != 0")
+        pos = pos[:, :2]
+    periodic = None
+    if "polypack/periodic" in log:
+        flags = np.asarray(log["polypack/periodic"]).reshape(-1)
+        if flags.shape != (dim,):
+            raise fail(path, f"log/polypack/periodic has shape {flags.shape}, expected ({dim},)")
+        periodic = tuple(bool(f) for f in flags)
     meta, info = {}, {}
     if "polypack/provenance" in log:
         text = log["polypack/provenance"]
@@ -116,5 +144,5 @@ def read_with_info(path, frame: int = -1) -> tuple[Packing, dict]:
             text = text.reshape(-1)[0] if text.dtype.kind in "UST" else text.tobytes().decode("utf-8", "replace")
         meta, info = parse_provenance(str(text), path)
     info.update(format="gsd", frames=nframes)
-    pk = build_packing(path, uncentre(pos, box), 0.5 * diam, box, species=typeid, meta=meta)
+    pk = build_packing(path, uncentre(pos, box), 0.5 * diam, box, species=typeid, meta=meta, periodic=periodic)
     return pk, info

@@ -54,8 +54,18 @@ _TITLE_TAG = "provenance="
 
 
 def write(path, packing: Packing) -> None:
-    """Write ``packing`` as a LAMMPS ``atom_style sphere`` data file (atomically)."""
+    """Write ``packing`` as a LAMMPS ``atom_style sphere`` data file (atomically).
+
+    3D packs only. A data file has no boundary flags: wall axes of ``packing.periodic``
+    are not stored (set ``boundary`` in the LAMMPS input script).
+    """
     from .. import __version__
+    from ..errors import InvalidInputError
+
+    if packing.dim != 3:
+        raise InvalidInputError(
+            f"the LAMMPS writer supports 3D packings only; got a {packing.dim}D packing (use .gsd, .xyz or .csv)"
+        )
 
     lx, ly, lz = (num(v) for v in packing.box)
     header = (

@@ -30,6 +30,9 @@ def write(path, packing: Packing) -> None:
     """Write ``packing`` as VTK PolyData XML (atomically)."""
     n = packing.n
     p = packing.positions
+    if packing.dim == 2:  # disks in the z = 0 plane; box [Lx, Ly, 0]
+        p = np.column_stack([p, np.zeros(n)])
+    box = np.append(packing.box, np.zeros(3 - packing.dim))
     # '--' may not appear inside an XML comment
     provenance = provenance_json(packing).replace("--", "-\\u002d")
     ids = np.arange(n, dtype=np.int64)
@@ -39,7 +42,7 @@ def write(path, packing: Packing) -> None:
         '<VTKFile type="PolyData" version="1.0" byte_order="LittleEndian" header_type="UInt64">\n'
         "  <PolyData>\n"
         "    <FieldData>\n"
-        + _array("box", "Float64", [packing.box[k : k + 1] for k in range(3)], FLOAT, 3, "      ", ' NumberOfTuples="1"')
+        + _array("box", "Float64", [box[k : k + 1] for k in range(3)], FLOAT, 3, "      ", ' NumberOfTuples="1"')
         + "    </FieldData>\n"
         f'    <Piece NumberOfPoints="{n}" NumberOfVerts="{n}" NumberOfLines="0" NumberOfStrips="0" NumberOfPolys="0">\n'
         '      <PointData Scalars="radius">\n'

@@ -7,6 +7,10 @@ Written as::
     X x y z radius species_id
     ...
 
+2D packs (disks) are written with ``z = 0``, a zero third lattice vector
+(``Lattice="Lx 0 0 0 Ly 0 0 0 0"``) and a third ``pbc`` flag ``F``; wall axes have
+``pbc`` ``F`` too (e.g. ``pbc="T F F"`` for a 2D deposit with a floor).
+
 ``X`` is the dummy element ASE and OVITO accept for spheres that are not atoms; the
 polypack species label is the integer column ``species_id``. Numbers use ``shortest round-trip decimals (``repr``)``
 so the file reads back exactly. The reader accepts any column order in
@@ -29,6 +33,8 @@ from ._common import (
     fail,
     format_rows,
     parse_int,
+    parse_pbc,
+    pbc_text,
     parse_provenance,
     provenance_json,
     read_text,
@@ -64,13 +70,15 @@ def parse_comment(line: str) -> dict[str, str]:
 
 def write(path, packing: Packing) -> None:
     """Write ``packing`` as extended XYZ (atomically)."""
-    lx, ly, lz = (num(v) for v in packing.box)
+    lx, ly = (num(v) for v in packing.box[:2])
+    lz = num(packing.box[2]) if packing.dim == 3 else "0"
     header = (
-        f'{packing.n}\nLattice="{lx} 0 0 0 {ly} 0 0 0 {lz}" Properties={PROPERTIES} pbc="T T T" '
+        f'{packing.n}\nLattice="{lx} 0 0 0 {ly} 0 0 0 {lz}" Properties={PROPERTIES} pbc="{pbc_text(packing)}" '
         f"polypack_provenance={_quote(provenance_json(packing))}\n"
     )
     p = packing.positions
-    body = format_rows([p[:, 0], p[:, 1], p[:, 2], packing.radii, packing.species], ["X " + FLOAT, FLOAT, FLOAT, FLOAT, "%d"])
+    pz = p[:, 2] if packing.dim == 3 else np.zeros(packing.n)
+    body = format_rows([p[:, 0], p[:, 1], pz, packing.radii, packing.species], ["X " + FLOAT, FLOAT, FLOAT, FLOAT, "%d"])
     with atomic_open(path, "w", encoding="utf-8", newline="\n") as fh:
         fh.write(header)
         fh.write(body)
@@ -119,9 +127,12 @@ def read_with_info(path) -> tuple[Packing, dict]:
     lattice = lattice.reshape(3, 3)
     if np.any(lattice[~np.eye(3, dtype=bool)] != 0):
         raise fail(path, f"Lattice={kv['Lattice']!r} is not orthorhombic; only diagonal boxes are allowed")
-    pbc = kv.get("pbc", "T T T").split()
-    if [t.upper() for t in pbc] not in (["T", "T", "T"], ["TRUE"] * 3, ["1"] * 3):
-        raise fail(path, f'pbc="{kv.get("pbc")}"; polypack needs a box periodic on all axes (pbc="T T T")')
+    pbc = parse_pbc(kv.get("pbc", "T T T"), path)
+    if len(pbc) != 3:
+        raise fail(path, f'pbc="{kv.get("pbc")}" must have 3 flags (T or F)')
+    dim = 2 if lattice[2, 2] == 0 else 3
+    if dim == 2 and pbc[2]:
+        raise fail(path, f'zero third lattice vector (a 2-D box) but pbc="{kv.get("pbc")}" says z is periodic')
     cols, ncol = _columns(kv.get("Properties", "species:S:1:pos:R:3"), path)
     for need, width in (("pos", 3), ("radius", 1)):
         if need not in cols or cols[need][2] != width:
@@ -140,6 +151,10 @@ def read_with_info(path) -> tuple[Packing, dict]:
             raise fail(path, f"column {name!r} holds a non-numeric value") from None
 
     positions, radii = numeric("pos"), numeric("radius")[:, 0]
+    if dim == 2:
+        if np.any(positions[:, 2] != 0):
+            raise fail(path, "a 2-D box (zero third lattice vector) holds particles with z != 0")
+        positions = positions[:, :2]
     if "species_id" in cols:
         species = as_int_column(numeric("species_id")[:, 0], "species_id", path)
     elif "species" in cols:  # foreign file: number element symbols by first appearance
@@ -152,4 +167,6 @@ def read_with_info(path) -> tuple[Packing, dict]:
     if "polypack_provenance" in kv:
         meta, info = parse_provenance(kv["polypack_provenance"], path)
     info.update(format="xyz", frames=frames)
-    return build_packing(path, positions, radii, np.diag(lattice), species=species, meta=meta), info
+    periodic = tuple(pbc[:dim])
+    return build_packing(path, positions, radii, np.diag(lattice)[:dim], species=species, meta=meta,
+                         periodic=periodic), info

@@ -11,6 +11,7 @@ import numpy as np
 
 from .._util import atomic_open
 from ..errors import FormatError, InvalidInputError
+from ..geometry import ball_volume
 
 __all__ = ["SizeSet"]
 
@@ -108,7 +109,7 @@ class SizeSet:
 
     def volumes(self) -> np.ndarray:
         """Particle volumes (``4/3 π r**3`` in 3D, ``π r**2`` in 2D)."""
-        return (4.0 / 3.0 * np.pi * self.radii**3) if self.dim == 3 else np.pi * self.radii**2
+        return ball_volume(self.radii, self.dim)
 
     def grading(self, d):
         """Grading curve of the set: volume fraction of particles with diameter ``<= d``.
