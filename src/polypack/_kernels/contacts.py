@@ -171,9 +171,14 @@ def contact_forces(pos, vel, omg, radii, h, dh, dt, ci, cj, cshift, ckn, cks, cr
         s0 = cshift[c, 0]
         s1 = cshift[c, 1]
         s2 = cshift[c, 2]
-        bx = pos[j, 0] - pos[i, 0] + h[0, 0] * s0 + h[0, 1] * s1 + h[0, 2] * s2
-        by = pos[j, 1] - pos[i, 1] + h[1, 0] * s0 + h[1, 1] * s1 + h[1, 2] * s2
-        bz = pos[j, 2] - pos[i, 2] + h[2, 0] * s0 + h[2, 1] * s1 + h[2, 2] * s2
+        imaged = s0 != 0.0 or s1 != 0.0 or s2 != 0.0
+        bx = pos[j, 0] - pos[i, 0]
+        by = pos[j, 1] - pos[i, 1]
+        bz = pos[j, 2] - pos[i, 2]
+        if imaged:
+            bx += h[0, 0] * s0 + h[0, 1] * s1 + h[0, 2] * s2
+            by += h[1, 0] * s0 + h[1, 1] * s1 + h[1, 2] * s2
+            bz += h[2, 0] * s0 + h[2, 1] * s1 + h[2, 2] * s2
         d = np.sqrt(bx * bx + by * by + bz * bz)
         ri = radii[i]
         rj = radii[j]
@@ -223,9 +228,13 @@ def contact_forces(pos, vel, omg, radii, h, dh, dt, ci, cj, cshift, ckn, cks, cr
             wx = -(omg[j, 1] * nz - omg[j, 2] * ny) * lj - (omg[i, 1] * nz - omg[i, 2] * ny) * li
             wy = -(omg[j, 2] * nx - omg[j, 0] * nz) * lj - (omg[i, 2] * nx - omg[i, 0] * nz) * li
             wz = -(omg[j, 0] * ny - omg[j, 1] * nx) * lj - (omg[i, 0] * ny - omg[i, 1] * nx) * li
-            ux = (vel[j, 0] - vel[i, 0] + wx) * dt + dh[0, 0] * s0 + dh[0, 1] * s1 + dh[0, 2] * s2
-            uy = (vel[j, 1] - vel[i, 1] + wy) * dt + dh[1, 0] * s0 + dh[1, 1] * s1 + dh[1, 2] * s2
-            uz = (vel[j, 2] - vel[i, 2] + wz) * dt + dh[2, 0] * s0 + dh[2, 1] * s1 + dh[2, 2] * s2
+            ux = (vel[j, 0] - vel[i, 0] + wx) * dt
+            uy = (vel[j, 1] - vel[i, 1] + wy) * dt
+            uz = (vel[j, 2] - vel[i, 2] + wz) * dt
+            if imaged:
+                ux += dh[0, 0] * s0 + dh[0, 1] * s1 + dh[0, 2] * s2
+                uy += dh[1, 0] * s0 + dh[1, 1] * s1 + dh[1, 2] * s2
+                uz += dh[2, 0] * s0 + dh[2, 1] * s1 + dh[2, 2] * s2
             un = ux * nx + uy * ny + uz * nz
             k = cks[c]
             fx -= k * (ux - un * nx)
@@ -282,7 +291,7 @@ def contact_forces(pos, vel, omg, radii, h, dh, dt, ci, cj, cshift, ckn, cks, cr
         acc[A_VIRIAL + 6] += Fz * bx
         acc[A_VIRIAL + 7] += Fz * by
         acc[A_VIRIAL + 8] += Fz * bz
-        if s0 != 0.0 or s1 != 0.0 or s2 != 0.0:
+        if imaged:
             acc[A_SHIFTSUM + 0] += Fx * s0
             acc[A_SHIFTSUM + 1] += Fx * s1
             acc[A_SHIFTSUM + 2] += Fx * s2
