@@ -245,3 +245,38 @@ def test_result_to_dict_and_plot(random_net, tmp_path):
     ax = r.plot()
     assert ax.get_xlabel() == "oscillation cycle"
     ax.figure.savefig(tmp_path / "fig.png")
+
+
+# ------------------------------------------------------------------ CLI
+def test_cli_shear_json_and_plot(tmp_path, capsys):
+    # seed units (r0 = 0.25 um, Table 1 defaults); the CLI result equals the API's
+    from polypack.cli import main
+
+    pk = pp.pack(np.full(150, 0.25e-6), volume_fraction=0.62, seed=5)
+    path = tmp_path / "pack.gsd"
+    pp.io.write(path, pk)
+    out, fig = tmp_path / "shear.json", tmp_path / "shear.png"
+    main(["shear", str(path), "--epsilon", "0.02", "--direction", "2,0", "--cycles", "2", "--steps-per-cycle", "200",
+          "--json", str(out), "--plot", str(fig), "--no-progress"])
+    import json
+
+    d = json.loads(out.read_text())
+    assert d["per_direction"][0]["voigt"] == "C55" and len(d["series"][0]["stress"]) > 100
+    assert fig.stat().st_size > 1000
+    net = bonded(pp.io.read(path), epsilon=0.02)
+    r = dem.oscillatory_shear(net, directions=[(2, 0)], cycles=2, steps_per_cycle=200)
+    assert d["storage_modulus"] == pytest.approx(r.storage_modulus, rel=1e-9)
+    assert "G' =" in capsys.readouterr().out
+
+
+def test_cli_shear_bad_boundary(tmp_path, capsys):
+    from polypack.cli import main
+
+    pk = pp.pack(np.full(60, 0.25e-6), volume_fraction=0.62, seed=5)
+    path = tmp_path / "pack.gsd"
+    pp.io.write(path, pk)
+    with pytest.raises(SystemExit) as info:
+        main(["shear", str(path), "--epsilon", "0.02", "--boundary", "walls"])
+    assert info.value.code != 0
+    err = capsys.readouterr().err
+    assert "boundary='walls'" in err and len(err.strip().splitlines()) == 1
