@@ -1,6 +1,7 @@
 """Tests of the Lubachevsky–Stillinger packer (polypack.pack, polypack._kernels.edmd)."""
 
 import math
+import signal
 
 import numpy as np
 import pytest
@@ -332,14 +333,19 @@ def test_time_budget_and_interrupt(monkeypatch):
         calls["n"] += 1
         out = real(*args)
         if calls["n"] == 2:
-            raise KeyboardInterrupt
+            signal.raise_signal(signal.SIGINT)  # a real Ctrl-C, delivered while the kernel runs
         return out
 
     monkeypatch.setattr(edmd, "run_chunk", interrupting)
-    pk = pp.pack(np.ones(300), 0.6, seed=1, chunk_collisions=2000)
-    assert pk.meta["status"] == "interrupted"
-    assert pk.volume_fraction < 0.6
-    assert pk.min_gap() >= 0.0
+    with pytest.raises(pp.errors.Interrupted) as info:
+        pp.pack(np.ones(300), 0.6, seed=1, chunk_collisions=2000)
+    assert calls["n"] == 2  # stopped at the safe point right after the chunk it arrived in
+    part = info.value.partial
+    assert part.meta["status"] == "interrupted"
+    assert part.volume_fraction < 0.6
+    assert part.min_gap() >= 0.0
+    assert isinstance(info.value, KeyboardInterrupt)  # never swallowed by ``except Exception``
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # handler restored
 
 
 def test_too_few_spheres_to_jam():

@@ -3,16 +3,28 @@
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
+import stat
 import sys
 import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from .errors import InvalidInputError
+from .errors import InvalidInputError, OutputError
 
-__all__ = ["as_seed_sequence", "rng_from", "seed_record", "progress_bar", "atomic_path", "atomic_open"]
+__all__ = ["as_seed_sequence", "rng_from", "seed_record", "progress_bar", "atomic_path", "atomic_open",
+           "output_path", "check_output_folder", "written_files"]
+
+#: Files completed by :func:`atomic_path` in this process (newest last); the CLI names
+#: them when a command is interrupted.
+_WRITTEN: list = []
+
+
+def written_files() -> list:
+    """Paths written completely (renamed into place) by this process so far."""
+    return list(_WRITTEN)
 
 
 def as_seed_sequence(seed) -> np.random.SeedSequence:
@@ -73,28 +85,134 @@ def _umask() -> int:
     return mask
 
 
+_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+          (stat.S_ISFIFO, "a FIFO (named pipe)"), (stat.S_ISSOCK, "a socket"))
+
+
+def _kind(mode) -> str:
+    for test, name in _KINDS:
+        if test(mode):
+            return name
+    return "not a regular file"
+
+
+def _existing_ancestor(folder: Path, shown) -> Path:
+    """The nearest existing ancestor of ``folder``; OutputError if it is not a writable folder."""
+    anc = folder
+    while True:
+        try:
+            st = os.stat(anc)
+            break
+        except FileNotFoundError:
+            if anc.parent == anc:
+                raise OutputError(f"{shown}: no existing folder above it") from None
+            anc = anc.parent
+        except NotADirectoryError:
+            anc = anc.parent
+            continue
+        except OSError as exc:
+            raise OutputError(f"{shown}: cannot use folder {anc} ({exc.strerror or exc})") from None
+    if not stat.S_ISDIR(st.st_mode):
+        raise OutputError(f"{shown}: {anc} is a file, not a folder; choose another path")
+    if not os.access(anc, os.W_OK | os.X_OK):
+        raise OutputError(f"{shown}: folder {anc} is not writable")
+    return anc
+
+
+def output_path(path) -> Path:
+    """The regular file a write to ``path`` replaces, checked before anything is computed.
+
+    polypack writes only regular files.  A symbolic link is followed: the write goes to
+    the regular file it points to (or creates it), and the link stays.  An existing
+    folder, device, FIFO or socket at the target, a file where a parent folder should
+    be, or a folder that is not writable raise :class:`~polypack.errors.OutputError`
+    with one line.  Missing parent folders are allowed (they are created on writing).
+    """
+    shown = str(path)
+    if shown == "":
+        raise OutputError("empty output path")
+    p = Path(os.path.realpath(os.fspath(path))) if os.path.islink(path) else Path(os.path.abspath(path))
+    try:
+        st = os.stat(p)
+    except FileNotFoundError:
+        st = None
+    except NotADirectoryError:
+        st = None  # a file in the parent chain: reported below
+    except OSError as exc:
+        raise OutputError(f"{shown}: cannot be written ({exc.strerror or exc})") from None
+    if st is not None:
+        if not stat.S_ISREG(st.st_mode):
+            what = _kind(st.st_mode)
+            hint = "; give a file name inside it" if stat.S_ISDIR(st.st_mode) else "; polypack writes only regular files"
+            raise OutputError(f"{shown}: is {what}{hint}")
+        if not os.access(p, os.W_OK):
+            raise OutputError(f"{shown}: the existing file is read-only")
+    _existing_ancestor(p.parent, shown)
+    return p
+
+
+def check_output_folder(path) -> Path:
+    """A folder polypack may create or fill (the run folder): OutputError with one line otherwise."""
+    shown = str(path)
+    p = Path(os.path.abspath(path))
+    try:
+        st = os.stat(p)
+    except (FileNotFoundError, NotADirectoryError):
+        _existing_ancestor(p.parent, shown)
+        return p
+    except OSError as exc:
+        raise OutputError(f"{shown}: cannot be used as output folder ({exc.strerror or exc})") from None
+    if not stat.S_ISDIR(st.st_mode):
+        raise OutputError(f"{shown}: is {_kind(st.st_mode) if not stat.S_ISREG(st.st_mode) else 'a file'}, "
+                          "not a folder; give a folder for the results")
+    if not os.access(p, os.W_OK | os.X_OK):
+        raise OutputError(f"{shown}: folder is not writable")
+    return p
+
+
+def make_folder(path) -> Path:
+    """``mkdir -p`` with a one-line OutputError instead of an OSError traceback."""
+    p = check_output_folder(path)
+    try:
+        p.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"{path}: cannot create the folder ({exc.strerror or exc})") from None
+    return Path(path)
+
+
 @contextlib.contextmanager
 def atomic_path(path):
     """Yield a temporary path in the destination folder; rename it onto ``path`` on success.
 
     On any exception the temporary file is removed and ``path`` is untouched, so an
-    interrupted write leaves the old file or none.
+    interrupted write leaves the old file or none.  The target is checked first
+    (:func:`output_path`): only regular files are written, a symbolic link is written
+    through (its target file is replaced, the link kept).
     """
-    path = Path(path)
-    folder = path.parent if str(path.parent) else Path(".")
-    folder.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    target = output_path(path)
+    folder = target.parent
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
+    except OSError as exc:
+        raise OutputError(f"{path}: cannot be written ({exc.strerror or exc})") from None
     os.close(fd)
     try:
         yield Path(tmp)
         # mkstemp makes the file private (0600); give it the mode a plain open() would
         # (the old file's mode when replacing one, else 0666 minus the umask)
         try:
-            mode = os.stat(path).st_mode & 0o7777
+            mode = os.stat(target).st_mode & 0o7777
         except FileNotFoundError:
             mode = 0o666 & ~_umask()
         os.chmod(tmp, mode)
-        os.replace(tmp, path)
+        try:
+            os.replace(tmp, target)
+        except OSError as exc:
+            if exc.errno in (errno.EISDIR, errno.ENOTDIR, errno.EACCES, errno.EPERM, errno.EROFS, errno.EBUSY):
+                raise OutputError(f"{path}: cannot be replaced ({exc.strerror or exc})") from None
+            raise
+        _WRITTEN.append(str(path))
     except BaseException:
         with contextlib.suppress(FileNotFoundError):
             os.remove(tmp)

@@ -90,19 +90,38 @@ def _click_exception_types():
     return tuple(errors), tuple(aborts)
 
 
+def _interrupted():
+    """Ctrl-C: one line naming what this command saved, exit code 130."""
+    from ._util import written_files
+
+    files = written_files()
+    saved = f"saved {', '.join(files)} before the interrupt" if files else "nothing was saved"
+    typer.echo(f"interrupted: {saved}", err=True)
+    sys.exit(130)
+
+
 def main(argv=None):
-    """Entry point: polypack errors become one-line messages and exit code 1."""
+    """Entry point: polypack errors become one-line messages and exit code 1; Ctrl-C exits 130.
+
+    A command that saves something on Ctrl-C (``run``, ``pack --checkpoint``) says what
+    itself; otherwise the line names the files completed before the interrupt (writes
+    are atomic: nothing half-written is ever left under a requested name).
+    """
+    from . import _interrupt, _util
+
+    _util._WRITTEN.clear()
     try:
-        app(args=argv, standalone_mode=False)
+        rv = app(args=argv, standalone_mode=False)
     except PolypackError as exc:
         typer.echo(f"error: {exc}", err=True)
         sys.exit(1)
     except KeyboardInterrupt:
-        typer.echo("interrupted", err=True)
-        sys.exit(130)
+        _interrupted()
     except SystemExit:
         raise
     except Exception as exc:  # click usage errors and friends
+        if _interrupt.is_interrupt(exc):  # e.g. numba's SystemError while a Ctrl-C is delivered
+            _interrupted()
         click_errors, aborts = _click_exception_types()
         if isinstance(exc, click_errors):
             exc.show()
@@ -111,6 +130,10 @@ def main(argv=None):
             typer.echo("aborted", err=True)
             sys.exit(1)
         raise
+    if rv == 130:  # typer turns a KeyboardInterrupt inside a command into exit code 130
+        _interrupted()
+    if isinstance(rv, int) and not isinstance(rv, bool) and rv != 0:
+        sys.exit(rv)
     return 0
 
 

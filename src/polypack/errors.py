@@ -13,6 +13,8 @@ __all__ = [
     "OverlapError",
     "FormatError",
     "InfeasibleError",
+    "OutputError",
+    "Interrupted",
 ]
 
 
@@ -34,3 +36,23 @@ class FormatError(PolypackError):
 
 class InfeasibleError(PolypackError):
     """The request cannot be met (an impossible volume fraction, too many particles, ...)."""
+
+
+class OutputError(PolypackError):
+    """An output path cannot be written (a device, FIFO, socket or folder at the target,
+    a read-only folder, a file where a folder is needed ...)."""
+
+
+class Interrupted(KeyboardInterrupt):
+    """A computation stopped at a safe point on Ctrl-C (SIGINT).
+
+    Derives from :class:`KeyboardInterrupt`, not from :class:`PolypackError`: it is not
+    an error of the input, and ``except Exception`` must never swallow it.  ``partial``
+    is the state reached (e.g. the pack grown so far, marked ``status="interrupted"``
+    in its ``meta``) or None; it is never a complete result and is saved only where
+    asked for under a name that says so (``polypack pack --checkpoint``).
+    """
+
+    def __init__(self, message="interrupted", partial=None):
+        super().__init__(message)
+        self.partial = partial

@@ -560,6 +560,12 @@ def load_study(path_or_data) -> Study:
             data = tomllib.load(fh)
     except FileNotFoundError:
         raise InvalidInputError(f"study file {str(path)!r} does not exist") from None
+    except IsADirectoryError:
+        raise InvalidInputError(f"study file {str(path)!r} is a folder; give the study's TOML file") from None
+    except OSError as exc:
+        raise InvalidInputError(f"study file {str(path)!r} cannot be read ({exc.strerror or exc})") from None
+    except UnicodeDecodeError:
+        raise InvalidInputError(f"study file {str(path)!r} is not a UTF-8 text file") from None
     except tomllib.TOMLDecodeError as exc:
         raise InvalidInputError(f"{path}: not valid TOML ({exc})") from None
     st = Study(validate(data, name=path.stem), source=path)

@@ -95,15 +95,17 @@ def analyze_packing(
         matplotlib.use("Agg", force=False)
         import matplotlib.pyplot as plt
 
-        folder = Path(plots)
-        folder.mkdir(parents=True, exist_ok=True)
+        from .._util import atomic_path, make_folder
+
+        folder = make_folder(plots)
         written = []
         for name, draw in figs.items():
             fig, ax = plt.subplots(figsize=(6, 4))
             draw(ax)
             fig.tight_layout()
             path = folder / f"{name}.png"
-            fig.savefig(path, dpi=120)
+            with atomic_path(path) as tmp:
+                fig.savefig(tmp, dpi=120, format="png")
             plt.close(fig)
             written.append(str(path))
         out["plots"] = written
@@ -126,14 +128,19 @@ def register(app: typer.Typer) -> None:
         tolerance: float = typer.Option(0.01, help="Contact gap tolerance eps."),
         points: int = typer.Option(200_000, help="Test points for the pore sizes."),
         seed: int = typer.Option(1, help="Seed of the pore test points."),
-        json_out: Optional[Path] = typer.Option(None, "--json", help="Write all results as JSON here."),
+        json_out: Optional[str] = typer.Option(None, "--json", help="Write all results as JSON here ('-': stdout)."),
         plots: Optional[Path] = typer.Option(None, "--plots", help="Write PNG plots into this folder."),
         fmt: Optional[str] = typer.Option(None, "--format", help="Override the file format."),
     ):
         """Statistical descriptors of a pack (all of them unless some are selected)."""
         from .. import io
-        from .._util import atomic_open
+        from .._util import atomic_open, check_output_folder, output_path
 
+        to_stdout = json_out == "-"
+        if json_out is not None and not to_stdout:
+            output_path(json_out)  # checked before computing
+        if plots is not None:
+            check_output_folder(plots)
         pk = io.read(file, fmt)
         chosen = [rdf, partial, kfunc, windows, contacts, pores]
         if not any(chosen):
@@ -143,6 +150,9 @@ def register(app: typer.Typer) -> None:
             n_points=points, seed=seed, plots=plots,
         )
         res = {"file": str(file), **res}
+        if to_stdout:  # machine-readable output only
+            typer.echo(json.dumps(res, indent=1))
+            return
         if json_out is not None:
             with atomic_open(json_out, "w") as fh:
                 json.dump(res, fh, indent=1)

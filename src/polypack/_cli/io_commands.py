@@ -149,7 +149,10 @@ def register(app: typer.Typer) -> None:
         Positions, radii, box, species and provenance are carried over exactly; the output is written atomically, so an existing TARGET is replaced only on success.
         """  # noqa: E501
         from .. import io
+        from .._util import output_path
 
+        io.format_for(target, to_fmt)
+        output_path(target)
         pk = io.read(source, from_fmt)
         io.write(target, pk, to_fmt)
         typer.echo(f"wrote {target} ({io.format_for(target, to_fmt)}, {pk.n} spheres)")

@@ -104,11 +104,26 @@ def register(app: typer.Typer) -> None:
         max_seconds: Optional[float] = typer.Option(None, "--max-seconds", help="Wall-clock budget."),
         max_collisions: Optional[int] = typer.Option(None, "--max-collisions", help="Collision budget."),
         output: Optional[Path] = typer.Option(None, "--output", "-o", help="Output file (.gsd, .xyz, .data, .csv, .vtp)."),
+        checkpoint: Optional[Path] = typer.Option(
+            None, "--checkpoint",
+            help="On Ctrl-C save the partial pack (status 'interrupted') here; never under --output.",
+        ),
         progress: Optional[bool] = typer.Option(None, "--progress/--no-progress", help="Progress bar."),
     ):
         """Pack spheres by Lubachevsky–Stillinger growth to a volume fraction or to jamming."""
+        from .. import io
+        from .._util import output_path
+        from ..errors import Interrupted
         from ..generate.lubachevsky import pack
 
+        # every destination is checked before anything is computed
+        for path in (output, checkpoint):
+            if path is not None:
+                io.format_for(path)
+                output_path(path)
+        if output is not None and checkpoint is not None and output_path(output) == output_path(checkpoint):
+            raise InvalidInputError(f"--checkpoint {checkpoint}: must differ from --output (a partial pack is never "
+                                    "saved under the requested name)")
         vf = volume_fraction.strip().lower()
         if vf != "jammed":
             try:
@@ -132,8 +147,21 @@ def register(app: typer.Typer) -> None:
         kw = {"fast_growth": fast_growth}
         if species is not None:
             kw["species"] = species
-        pk = pack(src, vf, seed=seed, growth_rate=growth_rate, max_seconds=max_seconds,
-                  max_collisions=max_collisions, progress=progress, **kw)
+        try:
+            pk = pack(src, vf, seed=seed, growth_rate=growth_rate, max_seconds=max_seconds,
+                      max_collisions=max_collisions, progress=progress, **kw)
+        except Interrupted as exc:
+            not_out = f"; nothing written to {output}" if output is not None else ""
+            if checkpoint is not None and exc.partial is not None:
+                io.write(checkpoint, exc.partial)
+                typer.echo(
+                    f"interrupted: partial pack (status 'interrupted', volume fraction "
+                    f"{exc.partial.volume_fraction:.6f}) saved to {checkpoint}{not_out}",
+                    err=True,
+                )
+            else:
+                typer.echo(f"interrupted: nothing was saved{not_out}", err=True)
+            raise SystemExit(130) from None
         m = pk.meta
         typer.echo(
             f"{m['status']}: N={pk.n} volume_fraction={pk.volume_fraction:.6f} reduced_pressure="
@@ -141,7 +169,5 @@ def register(app: typer.Typer) -> None:
             f"({m['collisions_per_second']:.3g}/s) wall_time={m['wall_time']:.2f}s min_gap={m['min_gap']:.3e}"
         )
         if output is not None:
-            from .. import io
-
             io.write(output, pk)
             typer.echo(f"wrote {output}")

@@ -21,6 +21,8 @@ def _load_config(path: Path) -> dict:
         data = tomllib.loads(Path(path).read_text())
     except OSError as exc:
         raise FormatError(f"cannot read config {path}: {exc.strerror}") from None
+    except UnicodeDecodeError:
+        raise FormatError(f"cannot read config {path}: not a UTF-8 text file") from None
     except tomllib.TOMLDecodeError as exc:
         raise FormatError(f"{path}: invalid TOML ({exc})") from None
     if "psd" not in data or not isinstance(data["psd"], dict):
@@ -36,6 +38,13 @@ def run(params: dict, output: Path, report: Optional[Path] = None, plots: Option
     for k in params:
         if k not in allowed:
             raise InvalidInputError(f"psd.{k}: unknown key; allowed: model, {', '.join(sorted(allowed - {'model'}))}")
+    from .._util import check_output_folder, output_path
+
+    output_path(output)  # destinations checked before the sizes are built
+    if report is not None:
+        output_path(report)
+    if plots is not None:
+        check_output_folder(plots)
     model, s = sizeset_from_dict(params)
     csv_path, json_path = s.save(output, report)
     desc = s.report["descriptors"]
@@ -50,10 +59,12 @@ def run(params: dict, output: Path, report: Optional[Path] = None, plots: Option
         matplotlib.use("Agg", force=False)
         import matplotlib.pyplot as plt
 
-        plots = Path(plots)
-        plots.mkdir(parents=True, exist_ok=True)
+        from .._util import atomic_path, make_folder
+
+        plots = make_folder(plots)
         for name, ax in (("grading", s.plot_grading(model)), ("histogram", s.plot_histogram())):
-            ax.figure.savefig(plots / f"{name}.png", dpi=120, bbox_inches="tight")
+            with atomic_path(plots / f"{name}.png") as tmp:
+                ax.figure.savefig(tmp, dpi=120, bbox_inches="tight", format="png")
             plt.close(ax.figure)
         echo(f"  plots in {plots}")
     return s

@@ -40,8 +40,11 @@ def register(app: typer.Typer) -> None:
     ):
         """Shake a pack: the seed's Monte-Carlo shaking (or collision-limited / Metropolis moves)."""
         from .. import io
+        from .._util import output_path
         from ..generate.shake import shake as run_shake
 
+        io.format_for(target)
+        output_path(target)  # checked before shaking
         pk = io.read(source)
         out = run_shake(
             pk, global_shakes=global_shakes, shake_radius=_floats(shake_radius), max_trials=_floats(max_trials),
@@ -91,8 +94,11 @@ def register(app: typer.Typer) -> None:
         from .. import io
         from ..errors import InvalidInputError
         from ..generate.shake import scrm
+        from .._util import output_path
         from .pack_commands import _read_radius_csv, sizes_from_options
 
+        io.format_for(output)
+        output_path(output)  # checked before packing
         if sizes is not None:
             if not sizes.exists():
                 raise InvalidInputError(f"size-set file {sizes} does not exist")

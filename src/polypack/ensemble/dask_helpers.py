@@ -41,7 +41,7 @@ __all__ = ["dask_executor"]
 
 
 @contextlib.contextmanager
-def dask_executor(address=None, n_workers=None):
+def dask_executor(address=None, n_workers=None, timeout="10s"):
     """Yield a :class:`concurrent.futures.Executor` backed by Dask distributed.
 
     Parameters
@@ -51,11 +51,13 @@ def dask_executor(address=None, n_workers=None):
         ``LocalCluster(n_workers=n_workers, threads_per_worker=1)`` for the duration.
     n_workers : int, optional
         Worker processes of the local cluster (default: the number of cores).
+    timeout : str or float, optional
+        How long to try to reach ``address`` (default ``"10s"``).
 
     Raises
     ------
     InvalidInputError
-        dask.distributed is not installed.
+        dask.distributed is not installed, or no scheduler answers at ``address``.
     """
     try:
         from dask.distributed import Client, LocalCluster
@@ -65,7 +67,14 @@ def dask_executor(address=None, n_workers=None):
         ) from None
     cluster = None
     if address:
-        client = Client(address)
+        try:
+            client = Client(address, timeout=timeout)
+        except (OSError, ValueError, TypeError) as exc:  # unreachable, refused, malformed, timed out
+            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+            raise InvalidInputError(
+                f"--scheduler {address!r}: cannot connect to a Dask scheduler there ({first[:200]}); "
+                "give a running scheduler's address, e.g. tcp://host:8786"
+            ) from None
     else:
         cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, dashboard_address=None)
         client = Client(cluster)

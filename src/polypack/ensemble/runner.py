@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._util import atomic_open, progress_bar
+from .._util import atomic_open, check_output_folder, make_folder, progress_bar
 from ..errors import InvalidInputError, PolypackError
 from ..study import Study, load_study
 from .stages import check_available, child_seed_records, preflight, realize
@@ -242,11 +242,12 @@ def run_study(
     check_available(study.data)
     if not (isinstance(workers, int) and workers >= 1):
         raise InvalidInputError(f"workers={workers!r}: must be an integer >= 1")
+    check_output_folder(out)
     seeds = child_seed_records(study.seed, study.realizations)
     preflight(study.data, seeds[0])
     out = Path(out)
     _check_out(out, study, force)
-    (out / "realizations").mkdir(parents=True, exist_ok=True)
+    make_folder(out / "realizations")
     for tmp in (out / "realizations").glob(".r[0-9]*.tmp"):  # left by a killed run
         tmp.unlink(missing_ok=True)
     study.write_resolved(out)
@@ -448,8 +449,7 @@ def ensemble_scalars(records) -> dict:
 def aggregate(out, study: Study, records) -> dict:
     """Write summary.csv, ensemble curves (JSON, CSV), scalar means and plots; return their paths."""
     out = Path(out)
-    ens = out / "ensemble"
-    ens.mkdir(parents=True, exist_ok=True)
+    ens = make_folder(out / "ensemble")
     files = {}
 
     rows = [_flat_row(r) for r in records]

@@ -238,7 +238,10 @@ def run_analyses(packing, analyses: dict, seed) -> dict:
 
     out = {}
     seeds = dict(zip(sorted(analyses), seed.spawn(len(analyses))))
+    from .. import _interrupt
+
     for name in sorted(analyses):
+        _interrupt.check(f"interrupted before analysis {name}")
         est = _ANALYSES[name][1](pa, analyses[name], packing, seeds[name])
         out[name] = [e.to_dict() for e in est] if isinstance(est, list) else est.to_dict()
     return out
@@ -336,12 +339,18 @@ def realize(study_data: dict, index: int, seed_rec: dict):
     seed, the protocol statistics, the size-set report and every analysis as plain data;
     the runner adds file names and checksums.
     """
+    from .. import _interrupt
+
     s_sizes, s_proto, s_ana = stage_seeds(seed_rec)
-    sizes = make_sizes(study_data["psd"], s_sizes)
-    packing = make_packing(sizes, study_data["protocol"], s_proto)
-    if packing.meta.get("status") == "interrupted" or (packing.meta.get("shake") or {}).get("interrupted"):
-        raise KeyboardInterrupt  # a generator stopped early on Ctrl-C: never record a partial pack
-    analyses = run_analyses(packing, study_data.get("analysis", {}), s_ana)
+    # Ctrl-C stops at the next safe point of a generator or between analyses, and the
+    # realization is then never returned (so never recorded): the interrupt propagates
+    with _interrupt.deferred():
+        sizes = make_sizes(study_data["psd"], s_sizes)
+        packing = make_packing(sizes, study_data["protocol"], s_proto)
+        if packing.meta.get("status") == "interrupted" or (packing.meta.get("shake") or {}).get("interrupted"):
+            raise KeyboardInterrupt  # never record a partial pack
+        _interrupt.check(f"realization {index} interrupted after its packing")
+        analyses = run_analyses(packing, study_data.get("analysis", {}), s_ana)
     report = getattr(sizes, "report", {}) or {}
     psd_scalars = {k: _jsonable(v) for k, v in report.items() if _jsonable(v) is not None}
     record = {

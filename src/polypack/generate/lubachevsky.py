@@ -17,7 +17,8 @@ import time
 import numpy as np
 
 from .._util import as_seed_sequence, progress_bar, rng_from, seed_record
-from ..errors import InfeasibleError, InvalidInputError, OverlapError
+from .. import _interrupt
+from ..errors import InfeasibleError, Interrupted, InvalidInputError, OverlapError
 from ..geometry import unit_ball_volume
 from ..packing import Packing
 
@@ -192,7 +193,7 @@ def pack(
     Packing
         Radii exactly as given, the box following from N, radii and the reached
         fraction; ``meta`` holds ``status`` ("target", "jammed", "collision_budget",
-        "time_budget", "interrupted"), ``collisions``, ``events``, ``wall_time``,
+        "time_budget"), ``collisions``, ``events``, ``wall_time``,
         ``collisions_per_second``, ``pressure_history`` (rows ``volume_fraction,
         reduced_pressure``), ``reduced_pressure``, ``jamming_estimate``
         (``φ/(1 − 3/p)``), ``growth_rate``, ``seed``, ``min_gap``,
@@ -208,6 +209,11 @@ def pack(
         spheres for the size ratio).
     OverlapError
         Never expected: the final exact check found a real overlap.
+    polypack.errors.Interrupted
+        Ctrl-C (SIGINT): growth stops at the end of the current chunk (a safe point,
+        every sphere synchronised) and the exception carries the pack grown so far in
+        ``.partial`` (``meta["status"] == "interrupted"``, exact, non-overlapping), or
+        None if nothing had grown.  It is a :class:`KeyboardInterrupt`, never a result.
 
     Notes
     -----
@@ -360,74 +366,74 @@ def pack(
     max_events = opt["max_events"]
     t_begin_chunks = time.perf_counter()
     bar = progress_bar(total=None, desc="pack", progress=progress, unit="coll")
-    interrupted = False
     last_p = float("nan")
-    try:
-        while True:
-            budget = chunk
-            if max_collisions is not None:
-                budget = min(budget, int(max_collisions) - int(state[1]))
-                if budget <= 0:
-                    status = "collision_budget"
+    code = 0
+    # Ctrl-C is deferred to the end of the current chunk (a safe point: every sphere is
+    # synchronised there), so the kernel is never torn apart mid-update
+    with _interrupt.deferred():
+        try:
+            while True:
+                if _interrupt.consume():
+                    status = "interrupted"
                     break
-            ev_budget = 1e18
-            if max_events is not None:
-                ev_budget = int(max_events) - int(state[2])
-                if ev_budget <= 0:
+                budget = chunk
+                if max_collisions is not None:
+                    budget = min(budget, int(max_collisions) - int(state[1]))
+                    if budget <= 0:
+                        status = "collision_budget"
+                        break
+                ev_budget = 1e18
+                if max_events is not None:
+                    ev_budget = int(max_events) - int(state[2])
+                    if ev_budget <= 0:
+                        status = "event_budget"
+                        break
+                params = np.array(
+                    [t_fast if fast_phase else t_stop, float(budget), p_max, float(window), t_ref, skin,
+                     float(ev_budget), float(opt["sync_every"] or 0), dilute_skin, float(opt["margin_cap"]),
+                     1.0 / fast if fast_phase else 1.0]
+                )
+                hist = np.zeros((budget // max(window, 1) + 2, 3))
+                c0 = state[1]
+                tc = time.perf_counter()
+                code, nh = edmd.run_chunk(x, v, g, box, state, params, hist)
+                dtc = time.perf_counter() - tc
+                if not fast_phase:  # no equation-of-state record of the fast start
+                    for row in hist[:nh]:
+                        hist_rows.append((phi_at(row[0]), row[1]))
+                        last_p = row[1]
+                done = state[1] - c0
+                rate = done / dtc if dtc > 0 else 0.0
+                bar.update(int(done))
+                bar.set_postfix(phi=f"{phi_at(state[0]):.5f}", p=f"{last_p:.4g}", rate=f"{rate:.3g}/s")
+                code = int(code)
+                if fast_phase and code == 1:  # end of the fast start: on at the requested rate
+                    fast_phase = False
+                    continue
+                if code == 1:
+                    status = "target" if target is not None else "jammed"
+                    if target is None:
+                        code = 3  # reached the box limit without jamming
+                    break
+                if code == 2:
+                    status = "jammed"
+                    break
+                if code == 3:
+                    status = "jammed"
+                    break
+                if code == 4:
                     status = "event_budget"
                     break
-            params = np.array(
-                [t_fast if fast_phase else t_stop, float(budget), p_max, float(window), t_ref, skin, float(ev_budget),
-                 float(opt["sync_every"] or 0), dilute_skin, float(opt["margin_cap"]), 1.0 / fast if fast_phase else 1.0]
-            )
-            hist = np.zeros((budget // max(window, 1) + 2, 3))
-            c0 = state[1]
-            tc = time.perf_counter()
-            try:
-                code, nh = edmd.run_chunk(x, v, g, box, state, params, hist)
-            except KeyboardInterrupt:
-                interrupted = True
-                code, nh = int(state[7]), 0
-            dtc = time.perf_counter() - tc
-            if not fast_phase:  # no equation-of-state record of the fast start
-                for row in hist[:nh]:
-                    hist_rows.append((phi_at(row[0]), row[1]))
-                    last_p = row[1]
-            done = state[1] - c0
-            rate = done / dtc if dtc > 0 else 0.0
-            bar.update(int(done))
-            bar.set_postfix(phi=f"{phi_at(state[0]):.5f}", p=f"{last_p:.4g}", rate=f"{rate:.3g}/s")
-            if interrupted:
-                status = "interrupted"
-                break
-            code = int(code)
-            if fast_phase and code == 1:  # end of the fast start: on at the requested rate
-                fast_phase = False
-                continue
-            if code == 1:
-                status = "target" if target is not None else "jammed"
-                if target is None:
-                    code = 3  # reached the box limit without jamming
-                break
-            if code == 2:
-                status = "jammed"
-                break
-            if code == 3:
-                status = "jammed"
-                break
-            if code == 4:
-                status = "event_budget"
-                break
-            if max_seconds is not None and time.perf_counter() - wall0 >= float(max_seconds):
-                status = "time_budget"
-                break
-    except KeyboardInterrupt:
-        status = "interrupted"
-    finally:
-        bar.close()
+                if max_seconds is not None and time.perf_counter() - wall0 >= float(max_seconds):
+                    status = "time_budget"
+                    break
+        finally:
+            bar.close()
     run_time = time.perf_counter() - t_begin_chunks
 
     t = float(state[0])
+    if status == "interrupted" and not t > 0.0:
+        raise Interrupted("pack interrupted before the spheres had grown; nothing to save", partial=None)
     if status == "jammed" and code == 3 and target is None:
         raise InfeasibleError(
             f"{n} spheres cannot jam in a periodic box before the largest one reaches half the box; "
@@ -493,6 +499,12 @@ def pack(
     meta.update(run)
     meta["history"] = history
     out = Packing(pos, radii, box_out, species=species, meta=meta)
+    if status == "interrupted":
+        raise Interrupted(
+            f"pack interrupted at volume fraction {phi_reached:.6g} after {collisions} collisions "
+            "(the partial pack is in .partial, status 'interrupted')",
+            partial=out,
+        )
     return out
 
 

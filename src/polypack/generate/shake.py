@@ -18,8 +18,9 @@ import time
 
 import numpy as np
 
+from .. import _interrupt
 from .._util import as_seed_sequence, progress_bar, seed_record
-from ..errors import InvalidInputError, OverlapError
+from ..errors import InfeasibleError, Interrupted, InvalidInputError, OverlapError
 from ..packing import Packing
 
 __all__ = ["shake", "scrm", "METHODS"]
@@ -197,6 +198,10 @@ def shake(
         Bad parameters (non-positive shake radius, zero trials, unknown method, ...).
     OverlapError
         If the input pack overlaps, or (never expected) the output does.
+    polypack.errors.Interrupted
+        Ctrl-C (SIGINT): shaking stops after the current kernel call (at most 20
+        global shakes; every sphere at an accepted position) and the exception
+        carries that pack in ``.partial`` (``meta["status"] == "interrupted"``).
     """
     from .._kernels import shake as kern
     from ..neighbors import choose_cells
@@ -362,81 +367,95 @@ def shake(
     m = 0
     window_sweeps = window_rebuilds = 0
     window_time = 0.0
-    try:
-        while m < global_shakes:
-            adapting = bool(adaptive) and m + 1 <= adapt_shakes
-            per_shake = adapting or callback is not None or bool(monitor_every)
-            if per_shake:
-                chunk = 1
-            else:
-                chunk = min(global_shakes - m, 20)
-            stats = np.zeros((chunk, ns, kern.N_STATS))
-            use_cells = nb["mode"] == "cells"
-            if use_cells:
-                head, nxt, prv, cell = nb["links"]
-                start, idx, ncell = dummy_i, dummy_i, nb["cgrid"]
-                cap = (nb["h"] - 2.0 * r_max) / r_max
-            else:
-                head = nxt = prv = cell = dummy_i
-                start, idx, ncell = nb["start"], nb["idx"], nb["ncell"]
-                cap = 0.5 * nb["s"]
-            t0 = time.perf_counter()
-            start, idx, nreb = kern.shake_sweeps(
-                pos, since, radii, species, box, rsh, start, idx, nb["s"], ncell, code, ocode, trials, chunk,
-                adapting and method != "metropolis", adapt_factor, _RSH_MIN, cap, rng, net, stats,
-                use_cells, nb["cgrid"], head, nxt, prv, cell,
-            )
-            elapsed = time.perf_counter() - t0
-            kernel_time += elapsed
-            if not use_cells:
-                nb["start"], nb["idx"] = start, idx
-            rebuilds += int(nreb)
-            window_sweeps += chunk
-            window_rebuilds += int(nreb)
-            window_time += elapsed
-            if window_sweeps >= 20:
-                # rebuilds take more than ~1/4 of the time: a wider skin pays off
-                frequent = window_rebuilds * nb["t_build"] > 0.25 * window_time
-                window_sweeps = window_rebuilds = 0
-                window_time = 0.0
-            else:
-                frequent = False
-            if skin is None and frequent and nb["mode"] == "verlet" and nb["s"] < s_cap:
-                verlet(min(s_cap, 1.4 * nb["s"]))
-            for st in stats:
-                m += 1
-                total_trials += float(st[:, kern.ST_TRIALS].sum())
-                total_accepted += float(st[:, kern.ST_ACCEPTED].sum())
+    # Ctrl-C is deferred to the end of the current kernel call (a safe point: every
+    # sphere sits at an accepted, non-overlapping position)
+    with _interrupt.deferred():
+        try:
+            while m < global_shakes:
+                if _interrupt.consume():
+                    partial = packing.replace(positions=pos.copy())
+                    partial.meta = dict(packing.meta, status="interrupted",
+                                        shake={"generator": "polypack.shake", "interrupted": True,
+                                               "global_shakes": global_shakes, "global_shakes_done": m,
+                                               "seed": seed_record(ss)})
+                    raise Interrupted(
+                        f"shake interrupted after {m} of {global_shakes} global shakes "
+                        "(the partial pack is in .partial)",
+                        partial=partial,
+                    )
+                adapting = bool(adaptive) and m + 1 <= adapt_shakes
+                per_shake = adapting or callback is not None or bool(monitor_every)
+                if per_shake:
+                    chunk = 1
+                else:
+                    chunk = min(global_shakes - m, 20)
+                stats = np.zeros((chunk, ns, kern.N_STATS))
+                use_cells = nb["mode"] == "cells"
+                if use_cells:
+                    head, nxt, prv, cell = nb["links"]
+                    start, idx, ncell = dummy_i, dummy_i, nb["cgrid"]
+                    cap = (nb["h"] - 2.0 * r_max) / r_max
+                else:
+                    head = nxt = prv = cell = dummy_i
+                    start, idx, ncell = nb["start"], nb["idx"], nb["ncell"]
+                    cap = 0.5 * nb["s"]
+                t0 = time.perf_counter()
+                start, idx, nreb = kern.shake_sweeps(
+                    pos, since, radii, species, box, rsh, start, idx, nb["s"], ncell, code, ocode, trials, chunk,
+                    adapting and method != "metropolis", adapt_factor, _RSH_MIN, cap, rng, net, stats,
+                    use_cells, nb["cgrid"], head, nxt, prv, cell,
+                )
+                elapsed = time.perf_counter() - t0
+                kernel_time += elapsed
+                if not use_cells:
+                    nb["start"], nb["idx"] = start, idx
+                rebuilds += int(nreb)
+                window_sweeps += chunk
+                window_rebuilds += int(nreb)
+                window_time += elapsed
+                if window_sweeps >= 20:
+                    # rebuilds take more than ~1/4 of the time: a wider skin pays off
+                    frequent = window_rebuilds * nb["t_build"] > 0.25 * window_time
+                    window_sweeps = window_rebuilds = 0
+                    window_time = 0.0
+                else:
+                    frequent = False
+                if skin is None and frequent and nb["mode"] == "verlet" and nb["s"] < s_cap:
+                    verlet(min(s_cap, 1.4 * nb["s"]))
+                for st in stats:
+                    m += 1
+                    total_trials += float(st[:, kern.ST_TRIALS].sum())
+                    total_accepted += float(st[:, kern.ST_ACCEPTED].sum())
+                    with np.errstate(invalid="ignore", divide="ignore"):
+                        acc = st[:, kern.ST_ACCEPTED] / st[:, kern.ST_TRIALS]
+                        moved = st[:, kern.ST_MOVED] / st[:, kern.ST_VISITS]
+                        mdisp = st[:, kern.ST_DISP] / st[:, kern.ST_ACCEPTED]
+                    hist["acceptance_rate"].append(nanlist(acc))
+                    hist["moved_fraction"].append(nanlist(moved))
+                    hist["mean_displacement"].append(nanlist(mdisp))
+                    hist["shake_radius_history"].append([float(x) for x in rsh])
                 with np.errstate(invalid="ignore", divide="ignore"):
-                    acc = st[:, kern.ST_ACCEPTED] / st[:, kern.ST_TRIALS]
-                    moved = st[:, kern.ST_MOVED] / st[:, kern.ST_VISITS]
-                    mdisp = st[:, kern.ST_DISP] / st[:, kern.ST_ACCEPTED]
-                hist["acceptance_rate"].append(nanlist(acc))
-                hist["moved_fraction"].append(nanlist(moved))
-                hist["mean_displacement"].append(nanlist(mdisp))
-                hist["shake_radius_history"].append([float(x) for x in rsh])
-            with np.errstate(invalid="ignore", divide="ignore"):
-                netd = np.sqrt(np.bincount(species, weights=(net * net).sum(axis=1) / r2, minlength=ns) / counts)
-            hist["net_displacement"].append([m, nanlist(netd)])
-            if adapting and method == "metropolis":
-                for k in range(ns):
-                    if st[k, kern.ST_TRIALS] > 0:
-                        fac = min(1.4, max(0.7, acc[k] / target_acceptance))
-                        rsh[k] = min(s_cap, max(_RSH_MIN, rsh[k] * fac))
-                hist["shake_radius_history"][-1] = [float(x) for x in rsh]
-            if adapting:
-                arrange()
-            if per_shake:
-                cur = packing.replace(positions=pos)
-                if monitor_every and m % monitor_every == 0:
-                    record(m, cur)
-                if callback is not None:
-                    callback(m, cur)
-            bar.update(chunk)
-            if not bar.disable:
-                bar.set_postfix(acc=f"{np.nanmean(acc):.3f}")
-    finally:
-        bar.close()
+                    netd = np.sqrt(np.bincount(species, weights=(net * net).sum(axis=1) / r2, minlength=ns) / counts)
+                hist["net_displacement"].append([m, nanlist(netd)])
+                if adapting and method == "metropolis":
+                    for k in range(ns):
+                        if st[k, kern.ST_TRIALS] > 0:
+                            fac = min(1.4, max(0.7, acc[k] / target_acceptance))
+                            rsh[k] = min(s_cap, max(_RSH_MIN, rsh[k] * fac))
+                    hist["shake_radius_history"][-1] = [float(x) for x in rsh]
+                if adapting:
+                    arrange()
+                if per_shake:
+                    cur = packing.replace(positions=pos)
+                    if monitor_every and m % monitor_every == 0:
+                        record(m, cur)
+                    if callback is not None:
+                        callback(m, cur)
+                bar.update(chunk)
+                if not bar.disable:
+                    bar.set_postfix(acc=f"{np.nanmean(acc):.3f}")
+        finally:
+            bar.close()
 
     meta = dict(packing.meta)
     history = list(meta.get("history", []))
@@ -485,6 +504,25 @@ def shake(
     meta["min_gap"] = float(gap_out)
     out.meta = meta
     return out
+
+
+def _check_shake_options(options):
+    """Judge the shake options of :func:`scrm` before any growth runs."""
+    import inspect
+
+    allowed = set(inspect.signature(shake).parameters) - {"packing", "global_shakes", "seed", "progress"}
+    unknown = set(options) - allowed
+    if unknown:
+        raise InvalidInputError(f"unknown scrm option(s) {sorted(unknown)}; allowed shake options: {sorted(allowed)}")
+    from ..packing import Packing
+
+    tiny = Packing(np.array([[0.0, 0.0, 0.0], [2.5, 2.5, 2.5]]), np.array([0.5, 0.5]), np.full(3, 5.0))
+    opts = {k: v for k, v in options.items() if k not in ("callback",)}
+    if "shake_radius" in opts or "max_trials" in opts:  # per-species values: judged on the real pack
+        opts.pop("shake_radius", None)
+        opts.pop("max_trials", None)
+    with _interrupt.deferred():
+        shake(tiny, global_shakes=0, seed=0, progress=False, **{**opts, "monitor_every": 0})
 
 
 def scrm(
@@ -542,6 +580,17 @@ def scrm(
         ``meta["scrm"]`` records the schedule (stage fractions, shakes per stage,
         acceptance per stage, times) and the seeds; ``meta["shake"]`` is the record
         of the final ``M`` global shakes; ``meta["history"]`` lists every stage.
+
+    Raises
+    ------
+    InvalidInputError
+        Bad schedule or shake options (judged before any growth runs).
+    InfeasibleError
+        A growth stage jammed below its target or ended on a budget.
+    polypack.errors.Interrupted
+        Ctrl-C (SIGINT): the running growth or shake stops at its next safe point and
+        no later stage runs; ``.partial`` is the pack of the last finished step (or
+        None), marked ``meta["status"] == "interrupted"``.
     """
     from . import pack
 
@@ -569,36 +618,58 @@ def scrm(
     for key in ("global_shakes", "seed", "progress"):
         if key in shake_options:
             raise InvalidInputError(f"{key} is an scrm argument; do not pass it among the shake options")
+    _check_shake_options(shake_options)
     ss = as_seed_sequence(seed)
     children = ss.spawn(2 * len(fractions) + 1)
     wall0 = time.perf_counter()
     stages = []
     pk = sizes
     bar = progress_bar(total=len(fractions) + 1, desc="scrm", progress=progress, unit="stage")
+    where = "before the first growth stage"
+    # One deferred section over all stages: a Ctrl-C stops the running growth or shake at
+    # its next safe point, and scrm never carries on with a stage after an interrupted one
     try:
-        for s_i, frac in enumerate(fractions):
-            t0 = time.perf_counter()
-            pk = pack(pk, volume_fraction=frac, seed=children[2 * s_i], growth_rate=growth_rate, progress=False)
-            t1 = time.perf_counter()
-            reached = pk.volume_fraction
-            status = pk.meta.get("status")
-            rec = {"stage": s_i, "target": frac, "reached": reached, "pack_status": status,
-                   "pack_time": t1 - t0, "shakes": 0}
-            if stage_shakes:
-                pk = shake(pk, global_shakes=stage_shakes, seed=children[2 * s_i + 1], progress=False,
-                           **{**shake_options, "monitor_every": 0})
-                sh = pk.meta["shake"]
-                rec.update(shakes=stage_shakes, shake_time=sh["wall_time"],
-                           acceptance_rate=sh["acceptance_rate"][-1])
-            stages.append(rec)
+        with _interrupt.deferred():
+            for s_i, frac in enumerate(fractions):
+                where = f"in growth stage {s_i + 1} of {len(fractions)} (to {frac:.6g})"
+                _interrupt.check(f"scrm interrupted {where}", partial=None if s_i == 0 else pk)
+                t0 = time.perf_counter()
+                pk = pack(pk, volume_fraction=frac, seed=children[2 * s_i], growth_rate=growth_rate, progress=False)
+                t1 = time.perf_counter()
+                reached = pk.volume_fraction
+                status = pk.meta.get("status")
+                rec = {"stage": s_i, "target": frac, "reached": reached, "pack_status": status,
+                       "pack_time": t1 - t0, "shakes": 0}
+                if stage_shakes:
+                    where = f"in the shakes after growth stage {s_i + 1} of {len(fractions)}"
+                    _interrupt.check(f"scrm interrupted {where}", partial=pk)
+                    pk = shake(pk, global_shakes=stage_shakes, seed=children[2 * s_i + 1], progress=False,
+                               **{**shake_options, "monitor_every": 0})
+                    sh = pk.meta["shake"]
+                    rec.update(shakes=stage_shakes, shake_time=sh["wall_time"],
+                               acceptance_rate=sh["acceptance_rate"][-1])
+                stages.append(rec)
+                bar.update(1)
+                if status == "jammed" and reached < frac - 1e-9:
+                    raise InfeasibleError(
+                        f"growth jammed at volume fraction {reached:.4f} below the stage target {frac:.4f}; "
+                        "lower volume_fraction or use a gentler schedule"
+                    )
+                if status not in ("target", "jammed"):
+                    raise InfeasibleError(
+                        f"growth stage {s_i + 1} ended with status {status!r} at volume fraction {reached:.4f} "
+                        f"(target {frac:.4f})"
+                    )
+            where = f"in the {global_shakes} final global shakes"
+            _interrupt.check(f"scrm interrupted {where}", partial=pk)
+            pk = shake(pk, global_shakes=global_shakes, seed=children[-1], progress=False, **shake_options)
             bar.update(1)
-            if status == "jammed" and reached < frac - 1e-9:
-                raise InvalidInputError(
-                    f"growth jammed at volume fraction {reached:.4f} below the stage target {frac:.4f}; "
-                    "lower volume_fraction or use a gentler schedule"
-                )
-        pk = shake(pk, global_shakes=global_shakes, seed=children[-1], progress=False, **shake_options)
-        bar.update(1)
+    except Interrupted as exc:
+        part = exc.partial
+        if part is not None:
+            part.meta = dict(part.meta, status="interrupted")
+        raise Interrupted(f"scrm interrupted {where}: {exc}" if str(exc) and "scrm" not in str(exc)
+                          else str(exc) or f"scrm interrupted {where}", partial=part) from None
     finally:
         bar.close()
     meta = dict(pk.meta)
