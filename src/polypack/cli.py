@@ -111,7 +111,12 @@ def main(argv=None):
 
     _util._WRITTEN.clear()
     try:
-        rv = app(args=argv, standalone_mode=False)
+        # The whole command runs with Ctrl-C deferred to its safe points (kernel chunks,
+        # global shakes, stages, realizations, analyses): a KeyboardInterrupt raised at
+        # a random bytecode (inside a numba result, a finaliser, a half-written record)
+        # could be lost or leave a traceback; a second Ctrl-C stops at once.
+        with _interrupt.deferred():
+            rv = app(args=argv, standalone_mode=False)
     except PolypackError as exc:
         typer.echo(f"error: {exc}", err=True)
         sys.exit(1)

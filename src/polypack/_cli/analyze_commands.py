@@ -33,7 +33,7 @@ def analyze_packing(
     """
     import numpy as np
 
-    from .. import analysis
+    from .. import _interrupt, analysis
     from ..analysis._base import to_jsonable
     from ..analysis._paircounts import species_radii
     from ..errors import InvalidInputError
@@ -68,10 +68,12 @@ def analyze_packing(
         figs["rdf"] = lambda ax: g.plot(ax=ax, partials=partial)
         if partial and ns > 1:
             figs["rdf_partial_R"] = lambda ax: g.plot(ax=ax, coordinate="R")
+    _interrupt.check()
     if kfunc:
         k = analysis.KFunction(r_max=r_abs, dr=step).compute(pk)
         out["kfunction"] = k.to_dict()
         figs["kfunction"] = lambda ax: k.plot(ax=ax)
+    _interrupt.check()
     if windows:
         w = analysis.WindowCounts(window_radius=window_radius)
         try:
@@ -81,14 +83,17 @@ def analyze_packing(
         else:
             out["windows"] = w.to_dict()
             figs["windows"] = lambda ax: w.plot(ax=ax)
+    _interrupt.check()
     if contacts:
         c = analysis.Contacts(tolerance=tolerance).compute(pk)
         out["contacts"] = c.to_dict()
         figs["contacts"] = lambda ax: c.plot(ax=ax)
+    _interrupt.check()
     if pores:
         p = analysis.PoreSizes(n_points=n_points, seed=seed).compute(pk)
         out["pores"] = p.to_dict()
         figs["pores"] = lambda ax: p.plot(ax=ax)
+    _interrupt.check()
     if plots is not None:
         import matplotlib
 

@@ -31,7 +31,7 @@ def _jsonable(obj):
     return repr(obj)
 
 
-def summarize(path, fmt: Optional[str] = None, max_pairs: int = MAX_PAIRS) -> dict:
+def summarize(path, fmt: Optional[str] = None, max_pairs: int = MAX_PAIRS, frame: Optional[int] = None) -> dict:
     """Everything ``polypack info`` reports, as plain JSON-able data.
 
     Keys: ``file``, ``format``, ``written_by``, ``n``, ``box``, ``box_volume``,
@@ -42,7 +42,7 @@ def summarize(path, fmt: Optional[str] = None, max_pairs: int = MAX_PAIRS) -> di
     """
     from .. import io
 
-    pk, info = io.read_with_info(path, fmt)
+    pk, info = io.read_with_info(path, fmt, **({} if frame is None else {"frame": frame}))
     gap, pair = pk.closest_pair()
     ov = pk.overlaps(0.0)
     species = []
@@ -59,6 +59,8 @@ def summarize(path, fmt: Optional[str] = None, max_pairs: int = MAX_PAIRS) -> di
     return {
         "file": str(path),
         "format": info["format"],
+        "frame": info.get("frame", 0),
+        "frames": info.get("frames", 1),
         "written_by": written,
         "n": pk.n,
         "box": pk.box.tolist(),
@@ -83,6 +85,8 @@ def format_summary(s: dict) -> str:
     box = " x ".join(f"{v:.6g}" for v in s["box"])
     lines = [
         f"file             {s['file']} ({s['format']}" + (f", written by {s['written_by']})" if s["written_by"] else ")"),
+        *([f"frame            {s['frame']} of frames 0..{s['frames'] - 1} (choose with --frame)"]
+          if s.get("frames", 1) > 1 else []),
         f"spheres          {s['n']}",
         f"box              {box}  (volume {s['box_volume']:.6g}, periodic)",
         f"volume fraction  {s['volume_fraction']:.6f}",
@@ -126,12 +130,13 @@ def register(app: typer.Typer) -> None:
         json_output: bool = typer.Option(False, "--json", help="Print machine-readable JSON instead of text."),
         fmt: Optional[str] = typer.Option(None, "--format", help="Format name when the extension is not standard."),
         pairs: int = typer.Option(MAX_PAIRS, "--pairs", min=0, help="How many overlapping pairs to name."),
+        frame: Optional[int] = typer.Option(None, "--frame", help="Frame of a multi-frame GSD/XYZ file (default: last)."),
     ):
         """Summarise a packing: N, box, volume fraction, species, minimum gap, overlaps, provenance.
 
         The minimum gap is the smallest d_ij/(r_i+r_j) - 1 over all pairs (minimum image in the periodic box); a negative value means overlapping spheres, and the worst overlapping pairs are named by their 0-based index in the file. Exit code 1 with a one-line error for an unreadable file.
         """  # noqa: E501
-        s = summarize(file, fmt, max_pairs=pairs)
+        s = summarize(file, fmt, max_pairs=pairs, frame=frame)
         if json_output:
             typer.echo(json.dumps(s, indent=2, allow_nan=False, default=repr))
         else:
@@ -143,6 +148,7 @@ def register(app: typer.Typer) -> None:
         target: str = typer.Argument(..., metavar="TARGET", help="Output file; the format follows its extension."),
         from_fmt: Optional[str] = typer.Option(None, "--from", help="Input format when the extension is not standard."),
         to_fmt: Optional[str] = typer.Option(None, "--to", help="Output format when the extension is not standard."),
+        frame: Optional[int] = typer.Option(None, "--frame", help="Frame of a multi-frame GSD/XYZ file (default: last)."),
     ):
         """Convert a packing between formats (gsd, xyz, lammps, csv; vtp for ParaView, write only).
 
@@ -153,9 +159,10 @@ def register(app: typer.Typer) -> None:
 
         io.format_for(target, to_fmt)
         output_path(target)
-        pk = io.read(source, from_fmt)
+        pk, info = io.read_with_info(source, from_fmt, **({} if frame is None else {"frame": frame}))
         io.write(target, pk, to_fmt)
-        typer.echo(f"wrote {target} ({io.format_for(target, to_fmt)}, {pk.n} spheres)")
+        which = f" from frame {info['frame']} of {info['frames']}" if info.get("frames", 1) > 1 else ""
+        typer.echo(f"wrote {target} ({io.format_for(target, to_fmt)}, {pk.n} spheres{which})")
 
 
 __all__ = ["register", "summarize", "format_summary"]

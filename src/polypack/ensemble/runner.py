@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .. import _interrupt
 from .._util import atomic_open, check_output_folder, make_folder, progress_bar
 from ..errors import InvalidInputError, PolypackError
 from ..study import Study, load_study
@@ -267,6 +268,7 @@ def run_study(
     try:
         if todo and executor is None and workers == 1:
             for i in todo:
+                _interrupt.check(f"interrupted before realization {i}")
                 try:
                     _, pk, rec, sec = run_realization(study.data, i, seeds[i])
                 except PolypackError as exc:
@@ -281,17 +283,22 @@ def run_study(
                 own = executor = cf.ProcessPoolExecutor(max_workers=min(workers, len(todo)), initializer=_worker_init)
             futs = {executor.submit(run_realization, study.data, i, seeds[i]): i for i in todo}
             try:
-                for fut in cf.as_completed(futs):
-                    i = futs[fut]
-                    try:
-                        _, pk, rec, sec = fut.result()
-                    except PolypackError as exc:
-                        failures[i] = exc
+                waiting = set(futs)
+                while waiting:
+                    # short waits: a deferred Ctrl-C is seen within a quarter second
+                    done, waiting = cf.wait(waiting, timeout=0.25, return_when=cf.FIRST_COMPLETED)
+                    _interrupt.check("interrupted while realizations were running")
+                    for fut in sorted(done, key=lambda f: futs[f]):
+                        i = futs[fut]
+                        try:
+                            _, pk, rec, sec = fut.result()
+                        except PolypackError as exc:
+                            failures[i] = exc
+                            bar.update(1)
+                            continue
+                        records[i] = _write_realization(out, study, i, pk, rec, sec)
+                        computed.append(i)
                         bar.update(1)
-                        continue
-                    records[i] = _write_realization(out, study, i, pk, rec, sec)
-                    computed.append(i)
-                    bar.update(1)
             except BaseException:
                 if own is not None:
                     _stop_pool(own)
@@ -304,6 +311,7 @@ def run_study(
         bar.close()
         if own is not None:
             own.shutdown(wait=True, cancel_futures=True)
+    _interrupt.check("interrupted before the ensemble results were aggregated")
     if failures:
         i, exc = sorted(failures.items())[0]
         raise PolypackError(

@@ -107,9 +107,10 @@ def write(path, packing: Packing, format: str | None = None) -> None:
 def read_with_info(path, format: str | None = None, **options) -> tuple[Packing, dict]:
     """Read a packing and a dict describing the file.
 
-    The dict holds ``format``, and for files written by polypack ``writer`` and
-    ``version`` (the polypack version that wrote it); GSD and XYZ also give ``frames``.
-    ``options`` go to the format reader (GSD: ``frame=-1``, the frame to read).
+    The dict holds ``format``, ``frames`` (number of frames in the file) and ``frame``
+    (the index read, from 0), and for files written by polypack ``writer`` and
+    ``version`` (the polypack version that wrote it).  ``options`` go to the format
+    reader (GSD and XYZ: ``frame=-1``, the frame to read).
     """
     return _module(format_for(path, format, reading=True)).read_with_info(path, **options)
 
@@ -124,8 +125,8 @@ def read(path, format: str | None = None, **options) -> Packing:
     format : {"gsd", "xyz", "lammps", "csv"}, optional
         Overrides the extension.
     **options
-        Passed to the format reader; GSD accepts ``frame`` (default -1, the last).
-        Multi-frame XYZ files give their last frame.
+        Passed to the format reader; GSD and XYZ accept ``frame`` (default -1, the
+        last; :func:`read_with_info` says which one was read).
 
     Returns
     -------

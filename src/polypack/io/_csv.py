@@ -59,8 +59,10 @@ def write(path, packing: Packing) -> None:
         fh.write(body)
 
 
-def read_with_info(path) -> tuple[Packing, dict]:
+def read_with_info(path, frame: int = -1) -> tuple[Packing, dict]:
     """Read a polypack CSV file; ``(packing, info)``."""
+    if isinstance(frame, bool) or frame not in (0, -1):
+        raise fail(path, f"frame {frame!r} requested but the file has 1 frame")
     lines = read_text(path).split("\n")[:-1]
     fields, k = {}, 0
     while k < len(lines) and lines[k].startswith("#"):
@@ -90,6 +92,6 @@ def read_with_info(path) -> tuple[Packing, dict]:
     meta, info = {}, {}
     if "provenance" in fields:
         meta, info = parse_provenance(fields["provenance"], path)
-    info.update(format="csv")
+    info.update(format="csv", frames=1, frame=0)
     species = as_int_column(table[:, dim + 1], "species", path)
     return build_packing(path, table[:, :dim], table[:, dim], box, species=species, meta=meta, periodic=periodic), info

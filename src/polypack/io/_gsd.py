@@ -87,7 +87,8 @@ def read_with_info(path, frame: int = -1) -> tuple[Packing, dict]:
     """Read one frame (default: the last) of a GSD file; ``(packing, info)``.
 
     ``info`` holds ``writer``/``version`` from the provenance record (empty for files
-    not written by polypack), ``format`` and ``frames``.
+    not written by polypack), ``format``, ``frames`` and ``frame`` (the index read,
+    counted from 0).  Every per-particle array must have ``particles/N`` rows.
     """
     import gsd.hoomd
 
@@ -96,13 +97,21 @@ def read_with_info(path, frame: int = -1) -> tuple[Packing, dict]:
             nframes = len(traj)
             if nframes == 0:
                 raise fail(path, "GSD file contains no frames")
-            if not -nframes <= frame < nframes:
+            if isinstance(frame, bool) or not isinstance(frame, (int, np.integer)) or not -nframes <= frame < nframes:
                 raise fail(path, f"frame {frame} requested but the file has {nframes} frame(s)")
             snap = traj[frame]
             n = int(snap.particles.N)
-            pos = np.asarray(snap.particles.position, dtype=np.float64).reshape(n, 3)
-            diam = np.asarray(snap.particles.diameter, dtype=np.float64).reshape(n)
-            typeid = np.asarray(snap.particles.typeid).reshape(n).astype(np.int64)
+            pos = np.asarray(snap.particles.position, dtype=np.float64)
+            diam = np.asarray(snap.particles.diameter, dtype=np.float64)
+            typeid = np.asarray(snap.particles.typeid)
+            for name, arr, width in (("position", pos, 3), ("diameter", diam, 1), ("typeid", typeid, 1)):
+                rows = arr.shape[0] if arr.ndim else 0
+                if rows != n or arr.size != n * width:
+                    raise fail(path, f"frame {frame % nframes}: particles/N is {n} but particles/{name} has "
+                                     f"{rows} rows")
+            pos = pos.reshape(n, 3)
+            diam = diam.reshape(n)
+            typeid = typeid.reshape(n).astype(np.int64)
             gbox = np.asarray(snap.configuration.box, dtype=np.float64).reshape(6)
             dim = int(snap.configuration.dimensions)
             log = dict(snap.log)
@@ -143,6 +152,6 @@ def read_with_info(path, frame: int = -1) -> tuple[Packing, dict]:
         if isinstance(text, np.ndarray):
             text = text.reshape(-1)[0] if text.dtype.kind in "UST" else text.tobytes().decode("utf-8", "replace")
         meta, info = parse_provenance(str(text), path)
-    info.update(format="gsd", frames=nframes)
+    info.update(format="gsd", frames=nframes, frame=int(frame) % nframes)
     pk = build_packing(path, uncentre(pos, box), 0.5 * diam, box, species=typeid, meta=meta, periodic=periodic)
     return pk, info

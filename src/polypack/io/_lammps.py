@@ -84,11 +84,43 @@ def write(path, packing: Packing) -> None:
         fh.write(body)
 
 
-def read_with_info(path) -> tuple[Packing, dict]:
+def _check_after_atoms(lines, k, n_atoms, path):
+    """Cross-check what follows the declared ``n_atoms`` Atoms rows: more rows before the
+    next section mean the header count is too small; a Velocities section must have one
+    row per atom."""
+    def rows_from(j):
+        m = 0
+        while j < len(lines) and lines[j].split("#", 1)[0].strip() and lines[j].split("#", 1)[0].strip() not in _SECTIONS:
+            m += 1
+            j += 1
+        return m, j
+
+    extra, k = rows_from(k)
+    if extra:
+        raise fail(path, f"header declares {n_atoms} atoms but the Atoms section has {n_atoms + extra} rows")
+    while k < len(lines):
+        text = lines[k].split("#", 1)[0].strip()
+        if not text:
+            k += 1
+            continue
+        if text not in _SECTIONS:
+            raise fail(path, f"line {k + 1}: {text[:60]!r} after the Atoms section is neither a row nor a section name")
+        name = text
+        k += 1
+        while k < len(lines) and not lines[k].strip():
+            k += 1
+        m, k = rows_from(k)
+        if name == "Velocities" and m != n_atoms:
+            raise fail(path, f"header declares {n_atoms} atoms but the Velocities section has {m} rows")
+
+
+def read_with_info(path, frame: int = -1) -> tuple[Packing, dict]:
     """Read a LAMMPS data file with an ``atom_style sphere`` Atoms section; ``(packing, info)``."""
+    if isinstance(frame, bool) or frame not in (0, -1):
+        raise fail(path, f"frame {frame!r} requested but the file has 1 frame")
     lines = read_text(path).split("\n")[:-1]
     title = lines[0]
-    n_atoms, bounds, atoms_at = None, {}, None
+    n_atoms, n_types, bounds, atoms_at = None, None, {}, None
     k = 1
     while k < len(lines):
         text = lines[k].split("#", 1)[0].strip()
@@ -107,6 +139,10 @@ def read_with_info(path) -> tuple[Packing, dict]:
         tok = text.split()
         if tok[-1] == "atoms" and len(tok) == 2:
             n_atoms = parse_int(tok[0], "atom count", path)
+            if n_atoms < 0:
+                raise fail(path, f"line {k + 1}: atom count {n_atoms} is negative")
+        elif tok[-2:] == ["atom", "types"] and len(tok) == 3:
+            n_types = parse_int(tok[0], "atom type count", path)
         elif tok[-2:] in (["xlo", "xhi"], ["ylo", "yhi"], ["zlo", "zhi"]) and len(tok) == 4:
             try:
                 bounds[tok[-2][0]] = (float(tok[0]), float(tok[1]))
@@ -132,6 +168,7 @@ def read_with_info(path) -> tuple[Packing, dict]:
     if len(rows) < n_atoms or (n_atoms and not rows[-1].strip()):
         got = sum(1 for r in rows if r.strip())
         raise fail(path, f"truncated: header declares {n_atoms} atoms but the Atoms section has {got} rows")
+    _check_after_atoms(lines, first + n_atoms, n_atoms, path)
     ncol = len(rows[0].split()) if rows else 7
     if ncol not in (7, 10):
         raise fail(path, f"line {first + 1}: {ncol} columns; atom_style sphere rows have 7 (or 10 with image flags)")
@@ -142,6 +179,10 @@ def read_with_info(path) -> tuple[Packing, dict]:
     if len(np.unique(ids)) != n_atoms:
         raise fail(path, "atom ids are not unique")
     species = as_int_column(table[:, 1], "atom type", path) - 1
+    if species.size and species.min() < 0:
+        raise fail(path, f"atom type {int(species.min()) + 1} is < 1; LAMMPS types start at 1")
+    if n_types is not None and species.size and species.max() + 1 > n_types:
+        raise fail(path, f"atom type {int(species.max()) + 1} found but the header declares {n_types} atom types")
     lo = np.array([bounds[a][0] for a in "xyz"])
     hi = np.array([bounds[a][1] for a in "xyz"])
     box = hi - lo
@@ -151,6 +192,6 @@ def read_with_info(path) -> tuple[Packing, dict]:
     meta, info = {}, {}
     if _TITLE_TAG in title:
         meta, info = parse_provenance(title.split(_TITLE_TAG, 1)[1], path)
-    info.update(format="lammps", atom_style="sphere")
+    info.update(format="lammps", atom_style="sphere", frames=1, frame=0)
     return build_packing(path, positions, 0.5 * table[:, 2], box, species=species, meta=meta), info
 

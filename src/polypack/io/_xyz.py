@@ -97,24 +97,37 @@ def _columns(spec: str, path) -> tuple[dict[str, tuple[int, str, int]], int]:
     return cols, at
 
 
-def read_with_info(path) -> tuple[Packing, dict]:
-    """Read the last frame of an extended XYZ file; ``(packing, info)``."""
+def read_with_info(path, frame: int = -1) -> tuple[Packing, dict]:
+    """Read one frame (default: the last) of an extended XYZ file; ``(packing, info)``.
+
+    Every frame is checked to be complete and to hold exactly the declared number of
+    rows; ``info`` gives ``frames`` and ``frame`` (the index read, counted from 0).
+    """
     lines = read_text(path).split("\n")[:-1]
-    start, frames = 0, 0
-    while True:  # skip to the last frame, checking every frame is complete
+    start, starts = 0, []
+    while True:  # find every frame, checking every frame is complete
+        head = lines[start].split()
+        if starts and len(head) != 1:
+            prev, pn = starts[-1]
+            raise fail(path, f"frame at line {prev + 1} declares {pn} atoms but has more rows (line {start + 1})")
         n = parse_int(lines[start].strip(), f"atom count on line {start + 1}", path)
         if n < 0:
             raise fail(path, f"atom count on line {start + 1} is {n}; must be >= 0")
         if len(lines) < start + 2 + n:
             raise fail(path, f"truncated: frame at line {start + 1} declares {n} atoms but the file ends after "
                              f"{max(len(lines) - start - 2, 0)}")
-        frames += 1
+        starts.append((start, n))
         nxt = start + 2 + n
         while nxt < len(lines) and not lines[nxt].strip():
             nxt += 1
         if nxt >= len(lines):
             break
         start = nxt
+    frames = len(starts)
+    if isinstance(frame, bool) or not isinstance(frame, (int, np.integer)) or not -frames <= frame < frames:
+        raise fail(path, f"frame {frame!r} requested but the file has {frames} frame(s)")
+    start, n = starts[frame]
+    frame = int(frame) % frames
     kv = parse_comment(lines[start + 1])
     if "Lattice" not in kv:
         raise fail(path, "no Lattice=\"...\" on the comment line; polypack needs a periodic box")
@@ -166,7 +179,7 @@ def read_with_info(path) -> tuple[Packing, dict]:
     meta, info = {}, {}
     if "polypack_provenance" in kv:
         meta, info = parse_provenance(kv["polypack_provenance"], path)
-    info.update(format="xyz", frames=frames)
+    info.update(format="xyz", frames=frames, frame=frame)
     periodic = tuple(pbc[:dim])
     return build_packing(path, positions, radii, np.diag(lattice)[:dim], species=species, meta=meta,
                          periodic=periodic), info
