@@ -51,6 +51,7 @@ __all__ = [
     "pack",
     "shake",
     "scrm",
+    "deposit",
     "io",
     "psd",
     "analysis",
@@ -67,6 +68,7 @@ _LAZY_FUNCS = {
     "pack": ("polypack.generate.lubachevsky", "pack"),
     "shake": ("polypack.generate.shake", "shake"),
     "scrm": ("polypack.generate.shake", "scrm"),
+    "deposit": ("polypack.generate.deposit", "deposit"),
 }
 
 

@@ -504,8 +504,12 @@ def _place_one(n, r, pos, rad, cid, clo, chi, ns, width, periodic, rmax, tol, re
 
 
 @njit(cache=True)
-def deposit_disks(rad, n_fixed, pos, support, params, cid, clo, chi, state):
-    """Deposit disks ``n_fixed..N-1`` in index order; disks ``0..n_fixed-1`` are a fixed bed.
+def deposit_disks(rad, n_fixed, k_stop, pos, support, params, cid, clo, chi, state):
+    """Deposit disks ``state[N_PLACED]..k_stop-1`` in index order (resumable in chunks).
+
+    Disks ``0..n_fixed-1`` are a fixed bed; the first call (``state[N_PLACED] == 0``)
+    builds the chain from it, later calls continue from the chain left in
+    ``cid, clo, chi`` and ``state[CHAIN_LEN]``.
 
     Parameters
     ----------
@@ -514,6 +518,8 @@ def deposit_disks(rad, n_fixed, pos, support, params, cid, clo, chi, state):
     n_fixed : int
         Number of bed disks, whose positions ``pos[:n_fixed]`` are given (no overlap,
         inside the box, ``y >= r``).
+    k_stop : int
+        Deposit up to (excluding) this index.
     pos : (N, 2) float64
         In: bed positions. Out: all centres (x in ``[0, W)`` when periodic).
     support : (N, 2) int64
@@ -521,40 +527,42 @@ def deposit_disks(rad, n_fixed, pos, support, params, cid, clo, chi, state):
     params : (N_PARAMS,) float64
         See :class:`DepositParam`.
     cid, clo, chi : (capacity,) int64, float64, float64
-        Chain work arrays (capacity ``>= 2 N + 4``).
+        The chain (capacity ``>= 2 N + 8``), kept between calls.
     state : (N_STATE,) int64
-        Out: see :class:`DepositState`.
+        In/out: see :class:`DepositState` (all zero before the first call).
 
     Returns
     -------
     int
         A :class:`DepositStatus` code.
     """
-    n = rad.shape[0]
     width = params[DepositParam.WIDTH]
     periodic = params[DepositParam.PERIODIC] != 0.0
     tol = params[DepositParam.TOL]
     rmax = params[DepositParam.RMAX]
     eps = 1e-14 * width
-    cid[0] = -1
-    clo[0] = 0.0
-    chi[0] = width
-    ns = 1
-    chain_max = 1
-    # bed: insert in order of increasing centre height (each is then above the others in its columns)
-    order = np.argsort(pos[:n_fixed, 1])
-    for q in range(n_fixed):
-        k = order[q]
-        support[k, 0] = NO_SUPPORT
-        support[k, 1] = NO_SUPPORT
-        ns = _cover_disk(cid, clo, chi, ns, k, pos[k, 0], rad[k], width, periodic, eps)
-        if ns < 0:
-            state[DepositState.N_PLACED] = q
-            return DepositStatus.CHAIN_FULL
-        if ns > chain_max:
-            chain_max = ns
+    if state[DepositState.N_PLACED] == 0:
+        cid[0] = -1
+        clo[0] = 0.0
+        chi[0] = width
+        ns = 1
+        # bed: insert in order of increasing centre height (each is then above the others
+        # in its columns, by the separating line of any non-overlapping pair)
+        order = np.argsort(pos[:n_fixed, 1])
+        for q in range(n_fixed):
+            k = order[q]
+            support[k, 0] = NO_SUPPORT
+            support[k, 1] = NO_SUPPORT
+            ns = _cover_disk(cid, clo, chi, ns, k, pos[k, 0], rad[k], width, periodic, eps)
+            if ns < 0:
+                return DepositStatus.CHAIN_FULL
+        state[DepositState.N_PLACED] = n_fixed
+        state[DepositState.CHAIN_LEN] = ns
+        state[DepositState.CHAIN_MAX] = ns
+    ns = state[DepositState.CHAIN_LEN]
+    chain_max = state[DepositState.CHAIN_MAX]
     res = np.zeros(2)
-    for k in range(n_fixed, n):
+    for k in range(state[DepositState.N_PLACED], k_stop):
         r = rad[k]
         found, s0, s1 = _place_one(k, r, pos, rad, cid, clo, chi, ns, width, periodic, rmax, tol, res)
         if not found:
@@ -572,7 +580,94 @@ def deposit_disks(rad, n_fixed, pos, support, params, cid, clo, chi, state):
             return DepositStatus.CHAIN_FULL
         if ns > chain_max:
             chain_max = ns
-    state[DepositState.N_PLACED] = n
+        state[DepositState.N_PLACED] = k + 1
     state[DepositState.CHAIN_LEN] = ns
     state[DepositState.CHAIN_MAX] = chain_max
     return DepositStatus.OK
+
+
+@njit(cache=True)
+def _chord_integral(t, r):
+    """``∫ sqrt(r^2 - t^2) dt`` (antiderivative at ``t``, ``|t| <= r``)."""
+    if t >= r:
+        return 0.25 * math.pi * r * r
+    if t <= -r:
+        return -0.25 * math.pi * r * r
+    return 0.5 * (t * math.sqrt(r * r - t * t) + r * r * math.asin(t / r))
+
+
+@njit(cache=True)
+def disk_rectangle_area(xc, yc, r, x0, x1, y0, y1):
+    """Exact area of the disk ``(xc, yc, r)`` inside the rectangle ``[x0, x1] x [y0, y1]``.
+
+    The vertical chord at ``x`` is clipped to ``[y0, y1]``; between the abscissae where
+    the circle crosses ``y = y0`` or ``y = y1`` the clipped chord has a fixed form
+    (a constant or an arc), integrated in closed form.
+    """
+    a = max(x0, xc - r)
+    b = min(x1, xc + r)
+    if a >= b or y1 <= y0:
+        return 0.0
+    pts = np.empty(6)
+    m = 0
+    pts[m] = a
+    m += 1
+    for yb in (y0, y1):
+        t = yb - yc
+        if t > -r and t < r:
+            w = math.sqrt(r * r - t * t)
+            for xb in (xc - w, xc + w):
+                if xb > a and xb < b:
+                    pts[m] = xb
+                    m += 1
+    pts[m] = b
+    m += 1
+    # insertion sort
+    for i in range(1, m):
+        v = pts[i]
+        j = i - 1
+        while j >= 0 and pts[j] > v:
+            pts[j + 1] = pts[j]
+            j -= 1
+        pts[j + 1] = v
+    total = 0.0
+    for q in range(m - 1):
+        u = pts[q]
+        v = pts[q + 1]
+        if v <= u:
+            continue
+        mid = 0.5 * (u + v) - xc
+        s = math.sqrt(max(r * r - mid * mid, 0.0))
+        if yc + s <= y0 or yc - s >= y1:
+            continue
+        tu = u - xc
+        tv = v - xc
+        arc = _chord_integral(tv, r) - _chord_integral(tu, r)
+        if yc + s > y1:
+            top = y1 * (v - u)
+        else:
+            top = yc * (v - u) + arc
+        if yc - s < y0:
+            bot = y0 * (v - u)
+        else:
+            bot = yc * (v - u) - arc
+        total += top - bot
+    return total
+
+
+@njit(cache=True)
+def disks_rectangle_area(pos, rad, x0, x1, y0, y1, width, periodic):
+    """Total area of disks inside ``[x0, x1] x [y0, y1]`` (periodic images along x if ``periodic``)."""
+    total = 0.0
+    for k in range(rad.shape[0]):
+        x = pos[k, 0]
+        y = pos[k, 1]
+        r = rad[k]
+        if y + r <= y0 or y - r >= y1:
+            continue
+        if periodic:
+            for shift in (-width, 0.0, width):
+                total += disk_rectangle_area(x + shift, y, r, x0, x1, y0, y1)
+        else:
+            total += disk_rectangle_area(x, y, r, x0, x1, y0, y1)
+    return total

@@ -23,6 +23,8 @@ _LAZY = {
     "ShellCount": "windows",
     "lattice_shell_count": "windows",
     "Contacts": "contacts",
+    "DepositStatistics": "deposits",
+    "free_surface_height": "deposits",
     "PoreSizes": "pores",
     "nearest_surface_distance": "pores",
     "theory": None,

@@ -1,4 +1,4 @@
-"""Generators of packings: Lubachevsky–Stillinger growth (:func:`pack`), shaking (SCRM).
+"""Generators of packings: Lubachevsky–Stillinger growth (:func:`pack`), shaking (SCRM), deposition.
 
 Functions are imported lazily so that importing this package does not compile kernels.
 """
@@ -7,12 +7,13 @@ from __future__ import annotations
 
 from importlib import import_module as _import_module
 
-__all__ = ["pack", "shake", "scrm"]
+__all__ = ["pack", "shake", "scrm", "deposit"]
 
 _LAZY = {
     "pack": ("polypack.generate.lubachevsky", "pack"),
     "shake": ("polypack.generate.shake", "shake"),
     "scrm": ("polypack.generate.shake", "scrm"),
+    "deposit": ("polypack.generate.deposit", "deposit"),
 }
 
 

@@ -1,0 +1,260 @@
+"""Sequential deposition of disks under gravity by potential minimisation, §2.4 of 001_ad5bae0acea940c4.txt.
+
+Seed 001 assembles its 2D packs "by the potential minimization method": the disks are
+placed one at a time, each at the lowest position where it rests on the floor, a wall or
+two disks of the free surface.  The geometry, the tie rule and the surface structure are
+described in :mod:`polypack._kernels.deposit`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .._util import as_seed_sequence, progress_bar, rng_from, seed_record
+from ..errors import InvalidInputError, OverlapError
+from ..packing import Packing
+
+__all__ = ["deposit", "deposit_arrays", "DEFAULT_TOLERANCE", "DEFAULT_FRACTION_GUESS"]
+
+DEFAULT_TOLERANCE = 1e-10
+"""Relative tolerance of the kernel's contact tests and tie rule (heights equal within ``tol * r``)."""
+
+DEFAULT_FRACTION_GUESS = 0.82
+"""Packing fraction used to choose a default width giving a roughly square deposit."""
+
+_CHUNK = 2000
+
+
+def _parse_radii(sizes):
+    if isinstance(sizes, Packing):
+        raise InvalidInputError("deposit takes sizes (a SizeSet or an array of radii), not a Packing")
+    if hasattr(sizes, "radii"):
+        dim = int(getattr(sizes, "dim", 2))
+        if dim != 2:
+            raise InvalidInputError(
+                f"the size set is for dim={dim}; deposit builds 2D disk packs only "
+                "(use pp.psd.discretize(..., dim=2)); 3D deposition is not implemented")
+        radii = np.array(sizes.radii, dtype=np.float64)
+        species = np.array(getattr(sizes, "species", np.zeros(radii.size)), dtype=np.int64)
+    else:
+        try:
+            radii = np.array(sizes, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise InvalidInputError(
+                f"sizes of type {type(sizes).__name__}: allowed are a SizeSet or an array of radii") from None
+        species = np.zeros(radii.size, dtype=np.int64)
+    if radii.ndim != 1 or radii.size < 1:
+        raise InvalidInputError(f"radii must be a non-empty 1-D array, got shape {radii.shape}")
+    bad = ~np.isfinite(radii) | (radii <= 0)
+    if bad.any():
+        k = int(np.flatnonzero(bad)[0])
+        raise InvalidInputError(f"radius of disk {k} is {radii[k]!r}; radii must be finite and > 0")
+    return radii, species
+
+
+def deposit_arrays(radii, width, periodic=True, bed_positions=None, bed_radii=None,
+                   tolerance=DEFAULT_TOLERANCE, progress=None):
+    """Deposit disks of the given radii **in the given order**; plain arrays in and out.
+
+    Parameters
+    ----------
+    radii : (N,) array of float
+        Radii in deposition order.
+    width : float
+        Box width ``W`` along x.
+    periodic : bool
+        Periodic x axis (else walls at ``x = 0`` and ``x = W``).
+    bed_positions, bed_radii : (M, 2), (M,) arrays, optional
+        A fixed bed (placed first, never moved): e.g. a row of disks on the floor.
+    tolerance : float
+        Relative tolerance of the contact tests and of the tie rule.
+    progress : bool, optional
+        Progress bar (default: only on a terminal).
+
+    Returns
+    -------
+    positions : (M + N, 2) array
+        Bed first, then the deposited disks in deposition order.
+    radii : (M + N,) array
+    supports : (M + N, 2) int64 array
+        The two supports of each disk: indices into the output, or the codes
+        ``FLOOR``, ``LEFT_WALL``, ``RIGHT_WALL``, ``NO_SUPPORT`` of
+        :mod:`polypack._kernels.deposit`.
+    stats : dict
+        Chain length statistics.
+    """
+    from .._kernels.deposit import DepositParam, DepositState, DepositStatus, deposit_disks
+
+    radii = np.ascontiguousarray(radii, dtype=np.float64)
+    if bed_positions is None:
+        bed_p = np.zeros((0, 2))
+        bed_r = np.zeros(0)
+    else:
+        bed_p = np.array(bed_positions, dtype=np.float64).reshape(-1, 2)
+        bed_r = np.array(bed_radii, dtype=np.float64).reshape(-1)
+        if bed_r.shape[0] != bed_p.shape[0]:
+            raise InvalidInputError(f"bed has {bed_p.shape[0]} positions but {bed_r.shape[0]} radii")
+        if np.any(bed_r <= 0) or not np.all(np.isfinite(bed_r)) or not np.all(np.isfinite(bed_p)):
+            raise InvalidInputError("bed radii must be finite and > 0 and bed positions finite")
+        if np.any(bed_p[:, 1] < bed_r * (1 - 1e-12)):
+            raise InvalidInputError("every bed disk must lie above the floor (y >= r)")
+        if periodic:
+            bed_p[:, 0] = np.mod(bed_p[:, 0], width)
+        elif np.any(bed_p[:, 0] < bed_r * (1 - 1e-12)) or np.any(bed_p[:, 0] > width - bed_r * (1 - 1e-12)):
+            raise InvalidInputError("every bed disk must lie between the walls (r <= x <= W - r)")
+    m = bed_r.size
+    rad = np.concatenate([bed_r, radii])
+    n = rad.size
+    pos = np.zeros((n, 2))
+    pos[:m] = bed_p
+    support = np.zeros((n, 2), dtype=np.int64)
+    params = np.zeros(int(DepositParam.N_PARAMS))
+    params[DepositParam.WIDTH] = width
+    params[DepositParam.PERIODIC] = 1.0 if periodic else 0.0
+    params[DepositParam.TOL] = tolerance
+    params[DepositParam.RMAX] = rad.max()
+    cap = 2 * n + 8
+    cid = np.zeros(cap, dtype=np.int64)
+    clo = np.zeros(cap)
+    chi = np.zeros(cap)
+    state = np.zeros(int(DepositState.N_STATE), dtype=np.int64)
+    with progress_bar(total=n - m, desc="deposit", progress=progress, unit="disk") as bar:
+        k = m
+        while True:
+            stop = min(n, max(k, m) + _CHUNK)
+            status = deposit_disks(rad, m, stop, pos, support, params, cid, clo, chi, state)
+            if status != DepositStatus.OK:
+                raise RuntimeError(
+                    f"deposition kernel stopped with {DepositStatus(status).name} at disk "
+                    f"{int(state[DepositState.N_PLACED])} (please report)")
+            bar.update(int(state[DepositState.N_PLACED]) - k)
+            k = int(state[DepositState.N_PLACED])
+            if k >= n:
+                break
+    stats = {"chain_length": int(state[DepositState.CHAIN_LEN]), "chain_max": int(state[DepositState.CHAIN_MAX])}
+    return pos, rad, support, stats
+
+
+def deposit(sizes, width=None, boundary="periodic", order="random", seed=None, bed=None,
+            tolerance=DEFAULT_TOLERANCE, progress=None):
+    """2D pack of disks built by sequential deposition (potential minimisation).
+
+    Each disk, in turn, goes to the lowest centre height at which it rests on the floor,
+    a wall or two disks of the free surface, reachable by a vertical drop; ties
+    (heights within ``tolerance * r``) go to the leftmost position.  This is the
+    "potential minimization method" of §2.4 of 001_ad5bae0acea940c4.txt (Fig. 9 builds
+    ρ(s) with it); every disk placed on two disks touches them and rests between them,
+    so the mean coordination of the bulk is 4.
+
+    Parameters
+    ----------
+    sizes : SizeSet or (N,) array of radii
+        A SizeSet with ``dim=2`` (e.g. ``pp.psd.discretize(model, dim=2)``) or radii.
+    width : float, optional
+        Box width ``W``.  Default: a roughly square deposit,
+        ``sqrt(sum(pi r^2) / DEFAULT_FRACTION_GUESS)``.
+    boundary : {"periodic", "walls"}
+        x axis periodic, or rigid side walls at ``x = 0`` and ``x = W``.
+    order : {"random", "given"}
+        Deposition order: a random permutation drawn from ``seed``, or as given.
+    seed : int or SeedSequence, optional
+        Seeds the random order (recorded in ``meta["seed"]``).
+    bed : Packing or (positions, radii), optional
+        Disks fixed before the deposition (a rough floor); they come first in the output
+        (``meta["n_bed"]``).
+    tolerance : float
+        Relative tolerance of the contact tests and of the tie rule.
+    progress : bool, optional
+        Progress bar (default: only on a terminal).
+
+    Returns
+    -------
+    Packing
+        2D, ``periodic=(boundary == "periodic", False)``, box ``(W, H)`` with the floor at
+        ``y = 0`` and ``H`` the top of the highest disk (an open top: no disk touches a
+        wall there except the highest).  Disks are stored in deposition order (bed first;
+        with ``order="given"`` that is the input order).  ``meta`` records the protocol, seed, width, boundary and chain statistics.
+
+    Raises
+    ------
+    InvalidInputError
+        A disk wider than the box (walls) or a periodic width below four diameters, an
+        unknown boundary or order, bad radii.
+    OverlapError
+        If the result fails the overlap check (relative gap below ``-1e-9``; never
+        expected).
+
+    References
+    ----------
+    C. Voivret, F. Radjai, J.-Y. Delenne and M. S. El Youssoufi, Space-filling properties
+    of polydisperse granular media, Phys. Rev. E 76, 021301 (2007).
+    """
+    radii, species = _parse_radii(sizes)
+    if boundary not in ("periodic", "walls"):
+        raise InvalidInputError(f"boundary={boundary!r}: allowed are 'periodic' and 'walls'")
+    if order not in ("random", "given"):
+        raise InvalidInputError(f"order={order!r}: allowed are 'random' and 'given'")
+    try:
+        tol = float(tolerance)
+    except (TypeError, ValueError):
+        raise InvalidInputError(f"tolerance={tolerance!r} must be a number in (0, 1e-3]") from None
+    if not (0 < tol <= 1e-3):
+        raise InvalidInputError(f"tolerance={tolerance!r} must be in (0, 1e-3]")
+    periodic = boundary == "periodic"
+    bed_p = bed_r = None
+    bed_sp = np.zeros(0, dtype=np.int64)
+    if bed is not None:
+        if isinstance(bed, Packing):
+            if bed.dim != 2:
+                raise InvalidInputError(f"bed must be a 2D Packing, got dim={bed.dim}")
+            bed_p, bed_r, bed_sp = np.array(bed.positions), np.array(bed.radii), np.array(bed.species)
+        else:
+            try:
+                bed_p, bed_r = bed
+            except (TypeError, ValueError):
+                raise InvalidInputError("bed must be a Packing or a pair (positions, radii)") from None
+            bed_r = np.asarray(bed_r, dtype=np.float64).reshape(-1)
+            bed_sp = np.zeros(bed_r.size, dtype=np.int64)
+    all_r = radii if bed_r is None else np.concatenate([radii, bed_r])
+    dmax = 2.0 * float(all_r.max())
+    if width is None:
+        width = math.sqrt(float(np.pi * np.sum(radii**2)) / DEFAULT_FRACTION_GUESS)
+        width = max(width, 4.5 * dmax if periodic else 1.5 * dmax)
+    try:
+        width = float(width)
+    except (TypeError, ValueError):
+        raise InvalidInputError(f"width={width!r} must be a number > 0") from None
+    if not np.isfinite(width) or width <= 0:
+        raise InvalidInputError(f"width={width!r} must be finite and > 0")
+    if periodic and width < 4.0 * dmax:
+        raise InvalidInputError(
+            f"width={width:g} is below four times the largest diameter {dmax:g}; a periodic deposit "
+            "needs W >= 4 d_max (unique minimum image of the supports)")
+    if not periodic and width < dmax:
+        raise InvalidInputError(f"a disk of diameter {dmax:g} is wider than the box width={width:g}")
+    ss = as_seed_sequence(seed)
+    if order == "random":
+        perm = rng_from(ss).permutation(radii.size)
+    else:
+        perm = np.arange(radii.size)
+    pos, rad, support, stats = deposit_arrays(radii[perm], width, periodic, bed_p, bed_r, tol, progress)
+    sp = np.concatenate([bed_sp, species[perm]])
+    height = float(np.max(pos[:, 1] + rad))
+    meta = {
+        "protocol": "deposit",
+        "method": "potential_minimisation",
+        "boundary": boundary,
+        "order": order,
+        "width": width,
+        "tolerance": tol,
+        "seed": seed_record(ss),
+        "n_bed": int(0 if bed_r is None else bed_r.size),
+        **stats,
+    }
+    pk = Packing(pos, rad, [width, height], species=sp, meta=meta, periodic=(periodic, False))
+    ov = pk.overlaps(1e-9)
+    if len(ov):
+        raise OverlapError(f"deposit produced {len(ov)} overlapping pair(s); worst relative gap {ov[0, 2]:.3e}")
+    return pk
