@@ -299,3 +299,55 @@ def test_sizeset_input_and_bad_input():
         pp.deposit(s3)
     with pytest.raises(InvalidInputError, match="2D"):
         pp.analysis.DepositStatistics().compute(pp.Packing(np.random.default_rng(0).uniform(2, 8, (10, 3)), np.full(10, 0.1), 10.0))
+
+
+def test_cli_deposit(tmp_path, capsys):
+    from polypack.cli import main
+
+    out = tmp_path / "d.gsd"
+    main(["deposit", "--n", "600", "--radius", "0.5", "--boundary", "walls", "--seed", "2", "-o", str(out)])
+    text = capsys.readouterr().out
+    assert "deposited N=600" in text and "wrote" in text
+    pk = pp.io.read(out)
+    assert pk.n == 600 and pk.dim == 2 and pk.periodic == (False, False)
+    assert pk.min_gap() > -1e-9
+    main(["deposit", "--span", "0.5", "--min-total", "800", "--seed", "1"])
+    assert "packing_fraction=" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        main(["deposit", "--span", "1.5"])
+
+
+def test_wedge_under_an_overhang_when_the_drop_height_has_no_pocket():
+    # span 0.97 (radius ratio 65): a small disk can find no pocket at all; it then goes to
+    # the lowest wedge between a disk below and one above it.  Check the case: the drop
+    # height has no pocket (every grid local minimum is a jump, as in
+    # test_no_grid_pocket_is_lower), and the wedge is in equilibrium with no overlap.
+    m = pp.psd.CumulativeBeta(a=1, b=1, span=0.97, dim=2)
+    s = pp.psd.discretize(m, n_classes=10, min_per_class=10, min_total=2000, seed=1)
+    rad = s.radii[np.random.default_rng(3).permutation(s.n)]
+    W = 5.5
+    pos, r, sup, _ = deposit_arrays(rad, W, True)
+    pk = pp.Packing(pos, r, [W, float((pos[:, 1] + r).max())], periodic=(True, False))
+    assert pk.min_gap() > -1e-9
+    wedges = [k for k in range(len(r)) if min(sup[k]) >= 0 and max(pos[sup[k], 1]) > pos[k, 1]]
+    assert wedges  # this seed has some (found by search)
+    for k in wedges[:2]:
+        P, R, rk = pos[:k], r[:k], r[k]
+        x = np.linspace(0.0, W, 20000, endpoint=False)
+        U = _envelope(P, R, rk, x, W, True)
+        mins = np.flatnonzero((U <= np.roll(U, 1)) & (U <= np.roll(U, -1)))
+        h = x[1] - x[0]
+        for q in mins:
+            j1, x1 = _jump_at_minimum(P, R, rk, W, True, x[q], h / 1000)
+            j2, _ = _jump_at_minimum(P, R, rk, W, True, x1, h / 1e6)
+            assert j2 > 0.5 * j1 > 0  # a jump, not a pocket
+        lo, hi = sorted(sup[k], key=lambda q: pos[q, 1])
+        assert pos[lo, 1] <= pos[k, 1] < pos[hi, 1]
+        n = []
+        for q in (lo, hi):
+            d = pos[k] - pos[q]
+            d[0] -= W * np.round(d[0] / W)
+            assert np.hypot(*d) == pytest.approx(rk + r[q], rel=1e-9)
+            n.append(d / np.hypot(*d))
+        ab = np.linalg.solve(np.array(n).T, [0.0, 1.0])  # gravity balanced by the two contacts
+        assert np.all(ab >= 0)

@@ -28,7 +28,12 @@ chain disk.  The chosen position is the global minimum of ``U_r`` over ``x`` (wa
 * a wall position ``x = r`` (``W - r``) on a disk lying on the far side of the centre.
 
 The kernel enumerates these candidates over the chain and keeps the lowest one that is
-on the envelope (no chain disk's dilated arc above it, up to ``tol`` relative).
+on the envelope (no chain disk's dilated arc above it, up to ``tol`` relative).  When
+``U_r`` has no pocket at all (every local minimum is the end of an overhanging arc, which
+happens for a small disk among much larger ones: it would land on a slope and roll under
+the overhang), the disk goes to the lowest *wedge*: an intersection of the dilated circles
+of a disk below and a disk above the new centre, in equilibrium under gravity on the two
+contacts, with no other disk above it.
 **Tie rule**: candidates whose heights differ by at most ``tol * r`` are equal; the
 leftmost (smallest ``x`` in ``[0, W)``) wins, so a bare floor fills from the left wall
 (from ``x = 0`` when periodic).
@@ -43,7 +48,7 @@ the separating line of the pair), so the update replaces the entries over
 ranges that wrap are split in two entries).  The cost per disk is linear in the chain
 length (about ``W / d``), independent of the number of disks already placed.
 
-Support codes (``support`` array, two per disk): ``>= 0`` a disk index, ``FLOOR``,
+Support codes (``support`` array; a wedge lists the lower disk first), two per disk): ``>= 0`` a disk index, ``FLOOR``,
 ``LEFT_WALL``, ``RIGHT_WALL`` or ``NO_SUPPORT`` (second slot of a disk on a bare periodic
 floor, and of fixed bed disks).
 """
@@ -337,6 +342,57 @@ def _pair_candidate(i, j, r, pos, rad, width, periodic):
 
 
 @njit(cache=True)
+def _wedge_candidate(i, j, r, pos, rad, width, periodic, side):
+    """Intersection ``side`` (0, 1) of the dilated circles of ``i`` and ``j`` as a wedge.
+
+    A wedge has one disk below the new centre (``lo``) and one above it (``hi``), and is
+    in equilibrium under gravity: ``(0, 1) = a n_lo + b n_hi`` with ``a, b >= 0`` for the
+    unit contact normals.  Returns ``(ok, x, y, lo, hi)``.
+    """
+    xi = pos[i, 0]
+    yi = pos[i, 1]
+    dx = _mi(pos[j, 0] - xi, width, periodic)
+    dy = pos[j, 1] - yi
+    Ri = r + rad[i]
+    Rj = r + rad[j]
+    d2 = dx * dx + dy * dy
+    if d2 >= (Ri + Rj) * (Ri + Rj) or d2 <= (Ri - Rj) * (Ri - Rj) or d2 == 0.0:
+        return False, 0.0, 0.0, -1, -1
+    d = math.sqrt(d2)
+    a = (Ri * Ri - Rj * Rj + d2) / (2.0 * d)
+    h2 = Ri * Ri - a * a
+    h = math.sqrt(h2) if h2 > 0.0 else 0.0
+    ux = dx / d
+    uy = dy / d
+    sg = 1.0 if side == 0 else -1.0
+    px = a * ux - sg * h * uy
+    py = a * uy + sg * h * ux
+    # normals from each support to the new centre
+    nix = px / Ri
+    niy = py / Ri
+    njx = (px - dx) / Rj
+    njy = (py - dy) / Rj
+    if niy >= 0.0 and njy < 0.0:
+        lo = i
+        hi = j
+        lx, ly, hx, hy = nix, niy, njx, njy
+    elif njy >= 0.0 and niy < 0.0:
+        lo = j
+        hi = i
+        lx, ly, hx, hy = njx, njy, nix, niy
+    else:
+        return False, 0.0, 0.0, -1, -1
+    det = lx * hy - ly * hx
+    if det == 0.0:
+        return False, 0.0, 0.0, -1, -1
+    wa = -hx / det
+    wb = lx / det
+    if wa < 0.0 or wb < 0.0:
+        return False, 0.0, 0.0, -1, -1
+    return True, xi + px, yi + py, lo, hi
+
+
+@njit(cache=True)
 def _place_one(n, r, pos, rad, cid, clo, chi, ns, width, periodic, rmax, tol, res):
     """Find the position of disk ``n`` (radius ``r``); writes ``res = (x, y)``, returns supports.
 
@@ -490,6 +546,47 @@ def _place_one(n, r, pos, rad, cid, clo, chi, ns, width, periodic, rmax, tol, re
                     best_x = x
                     s0 = left
                     s1 = right
+    if best_y == np.inf:
+        # no pocket: every local minimum of the drop height is the end of an overhanging
+        # arc (a small disk among much larger ones); the disk slides under the overhang to
+        # the lowest wedge between a disk below and the single disk above it
+        for e in range(ns):
+            i = cid[e]
+            if i < 0:
+                continue
+            xi_e = clo[e] + _mi(pos[i, 0] - clo[e], width, periodic)
+            limit = xi_e + rad[i] + 2.0 * r + 2.0 * rmax
+            f = e
+            foff = 0.0
+            fsteps = 0
+            while True:
+                f += 1
+                fsteps += 1
+                if f >= ns:
+                    if not periodic:
+                        break
+                    f = 0
+                    foff = width
+                if fsteps >= ns or clo[f] + foff > limit:
+                    break
+                j = cid[f]
+                if j < 0 or j == i:
+                    continue
+                for side in range(2):
+                    ok, x, y, lo_k, hi_k = _wedge_candidate(i, j, r, pos, rad, width, periodic, side)
+                    if not ok or y < r - tie:
+                        continue
+                    if periodic:
+                        x = _wrap(x, width, periodic)
+                    elif x < r - tie or x > width - r + tie:
+                        continue
+                    if not _better(y, x, best_y, best_x, tie):
+                        continue
+                    if _on_envelope(x, y, r, i, j, pos, rad, cid, clo, chi, ns, width, periodic, reach, tol):
+                        best_y = y
+                        best_x = x
+                        s0 = lo_k
+                        s1 = hi_k
     if best_y == np.inf:
         return False, -1, -1
     if not periodic:
