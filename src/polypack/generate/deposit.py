@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from .. import _interrupt
 from .._util import as_seed_sequence, progress_bar, rng_from, seed_record
 from ..errors import InvalidInputError, OverlapError
 from ..packing import Packing
@@ -120,9 +121,13 @@ def deposit_arrays(radii, width, periodic=True, bed_positions=None, bed_radii=No
     clo = np.zeros(cap)
     chi = np.zeros(cap)
     state = np.zeros(int(DepositState.N_STATE), dtype=np.int64)
-    with progress_bar(total=n - m, desc="deposit", progress=progress, unit="disk") as bar:
+    # Ctrl-C is deferred to the end of a chunk (a safe point: the chain is consistent)
+    # and then propagates; nothing partial is returned
+    with _interrupt.deferred(), progress_bar(total=n - m, desc="deposit", progress=progress, unit="disk") as bar:
         k = m
         while True:
+            if _interrupt.consume():
+                raise KeyboardInterrupt
             stop = min(n, max(k, m) + _CHUNK)
             status = deposit_disks(rad, m, stop, pos, support, params, cid, clo, chi, state)
             if status != DepositStatus.OK:
