@@ -15,6 +15,7 @@ __all__ = [
     "InfeasibleError",
     "OutputError",
     "Interrupted",
+    "OverlapWarning",
 ]
 
 
@@ -56,3 +57,8 @@ class Interrupted(KeyboardInterrupt):
     def __init__(self, message="interrupted", partial=None):
         super().__init__(message)
         self.partial = partial
+
+
+class OverlapWarning(UserWarning):
+    """An analysis was given a pack with overlapping spheres (its numbers are not those of
+    a hard-sphere pack); see :func:`polypack.analysis.overlap_policy`."""

@@ -16,6 +16,21 @@ __all__ = ["Packing", "WALL_TOLERANCE"]
 WALL_TOLERANCE = 1e-9
 
 
+def _float_array(name, value):
+    """A float64 copy of ``value``; InvalidInputError (not a bare ValueError) for text or objects."""
+    try:
+        return np.array(value, dtype=np.float64, copy=True)
+    except (TypeError, ValueError) as exc:
+        raise InvalidInputError(
+            f"{name}={_short_repr(value)}: must be numbers (an array of float), not {type(value).__name__} ({exc})"
+        ) from None
+
+
+def _short_repr(value, width=40):
+    text = repr(value)
+    return text if len(text) <= width else text[: width - 3] + "..."
+
+
 class Packing:
     """Spheres (3D) or disks (2D) in an orthorhombic box, periodic per axis.
 
@@ -56,12 +71,12 @@ class Packing:
     __slots__ = ("_positions", "_radii", "_box", "_species", "_periodic", "meta")
 
     def __init__(self, positions, radii, box, species=None, meta=None, periodic=None):
-        pos = np.array(positions, dtype=np.float64, copy=True)
-        rad = np.array(radii, dtype=np.float64, copy=True)
+        pos = _float_array("positions", positions)
+        rad = _float_array("radii", radii)
         if rad.ndim != 1:
             raise InvalidInputError(f"radii must be a 1-D array, got shape {rad.shape}")
         n = rad.shape[0]
-        bx = np.array(box, dtype=np.float64, copy=True)
+        bx = _float_array("box", box)
         if pos.ndim == 1 and pos.size == 0 and n == 0:
             pos = pos.reshape(0, bx.shape[0] if bx.ndim == 1 and bx.shape[0] in DIMENSIONS else 3)
         if pos.ndim != 2 or pos.shape[1] not in DIMENSIONS:

@@ -407,9 +407,21 @@ def validate(data, name=None) -> dict:
             raise InvalidInputError(f"analysis.{key}: unknown analysis; allowed: {', '.join(ANALYSES)}")
         res["analysis"][key] = _check_table(f"analysis.{key}", table, SCHEMA[f"analysis.{key}"])
 
+    if res["study"]["realizations"] > MAX_REALIZATIONS:
+        raise InvalidInputError(
+            f"study.realizations = {res['study']['realizations']}: at most {MAX_REALIZATIONS} "
+            "(split a larger ensemble into several studies with different seeds)"
+        )
     _check_psd(res["psd"])
     _check_protocol(res["protocol"])
     return res
+
+
+#: Largest ``study.realizations`` accepted (a typo such as 1e11 would hang the seed spawning).
+MAX_REALIZATIONS = 1_000_000
+
+#: Sections a study *file* must have (a dict passed to :func:`validate` may rely on defaults).
+REQUIRED_SECTIONS = ("psd", "protocol")
 
 
 def _check_psd(psd):
@@ -451,6 +463,11 @@ def _check_protocol(pr):
                 raise InvalidInputError(f'protocol.{key}: only used with protocol.kind = "scrm"')
     elif pr["volume_fraction"] == "jammed":
         raise InvalidInputError('protocol.volume_fraction = "jammed": SCRM needs a number in (0, 1)')
+    elif "start_fraction" in pr and not (0 < pr["start_fraction"] <= pr["volume_fraction"]):
+        raise InvalidInputError(
+            f"protocol.start_fraction = {pr['start_fraction']!r}: must be in (0, protocol.volume_fraction = "
+            f"{pr['volume_fraction']!r}]"
+        )
     if isinstance(pr["volume_fraction"], float) and "schedule" in pr:
         if pr["schedule"][-1] > pr["volume_fraction"]:
             raise InvalidInputError(
@@ -547,8 +564,9 @@ def load_study(path_or_data) -> Study:
     Raises
     ------
     InvalidInputError
-        The file is missing, is not valid TOML, or a key is unknown, mistyped or out of
-        range (the message names its key path).
+        The file is missing, is not valid TOML, lacks a ``[psd]`` or ``[protocol]``
+        section, or a key is unknown, mistyped or out of range (the message names its
+        key path).  A dict may leave sections out (their defaults are used).
     """
     if isinstance(path_or_data, Study):
         return path_or_data
@@ -568,8 +586,43 @@ def load_study(path_or_data) -> Study:
         raise InvalidInputError(f"study file {str(path)!r} is not a UTF-8 text file") from None
     except tomllib.TOMLDecodeError as exc:
         raise InvalidInputError(f"{path}: not valid TOML ({exc})") from None
+    missing = [sec for sec in REQUIRED_SECTIONS if sec not in data]
+    if missing:
+        what = "is empty" if not data else f"has no [{'] or ['.join(missing)}] section"
+        raise InvalidInputError(
+            f"study file {str(path)!r} {what}: a study names its size distribution ([psd] model = ...) "
+            "and its packing protocol ([protocol] kind, volume_fraction); see docs/run.md"
+        )
     st = Study(validate(data, name=path.stem), source=path)
     return st
+
+
+def code_digest() -> str:
+    """sha256 (16 hex digits) of the sources that determine a realization's results.
+
+    The kernels, generators, size distributions, analyses, the data model and the
+    realization stages: a resume trusts a saved realization only if it was computed by
+    exactly this code (and the same polypack version), so a changed generator never
+    silently reuses old packs.
+    """
+    import hashlib
+    import os
+
+    root = Path(__file__).resolve().parent
+    h = hashlib.sha256()
+    files = []
+    for sub in ("_kernels", "generate", "psd", "analysis"):
+        d = root / sub
+        if d.is_dir():
+            files += sorted(p for p in d.rglob("*.py"))
+    files += [root / n for n in ("packing.py", "neighbors.py", "geometry.py", os.path.join("ensemble", "stages.py"))]
+    for p in files:
+        try:
+            data = p.read_bytes()
+        except OSError:
+            continue
+        h.update(str(p.relative_to(root)).encode() + b"\0" + data)
+    return h.hexdigest()[:16]
 
 
 def versions() -> dict:
@@ -587,6 +640,7 @@ def versions() -> dict:
         except Exception:  # pragma: no cover - optional
             out[mod] = None
     out["platform"] = platform.platform()
+    out["code"] = code_digest()
     return out
 
 

@@ -136,6 +136,7 @@ def register(app: typer.Typer) -> None:
         json_out: Optional[str] = typer.Option(None, "--json", help="Write all results as JSON here ('-': stdout)."),
         plots: Optional[Path] = typer.Option(None, "--plots", help="Write PNG plots into this folder."),
         fmt: Optional[str] = typer.Option(None, "--format", help="Override the file format."),
+        overlaps: str = typer.Option("warn", "--overlaps", help="Overlapping input: warn, error or ignore."),
     ):
         """Statistical descriptors of a pack (all of them unless some are selected)."""
         from .. import io
@@ -146,14 +147,28 @@ def register(app: typer.Typer) -> None:
             output_path(json_out)  # checked before computing
         if plots is not None:
             check_output_folder(plots)
+        from ..analysis._base import OVERLAP_TOLERANCE, overlap_policy
+        from ..errors import InvalidInputError, OverlapError
+
+        if overlaps not in ("warn", "error", "ignore"):
+            raise InvalidInputError(f"--overlaps {overlaps!r}: allowed are warn, error, ignore")
         pk = io.read(file, fmt)
+        if overlaps != "ignore" and pk.n >= 2:
+            gap, pair = pk.closest_pair()
+            if gap < -OVERLAP_TOLERANCE:
+                msg = (f"{file} has overlapping spheres ({pk.overlaps(0.0).shape[0]} pair(s); worst: {pair[0]} and "
+                       f"{pair[1]}, relative gap {gap:.3g}); its statistics are not those of a hard-sphere pack")
+                if overlaps == "error":
+                    raise OverlapError(msg)
+                typer.echo(f"warning: {msg}", err=True)
         chosen = [rdf, partial, kfunc, windows, contacts, pores]
         if not any(chosen):
             chosen = [True] * 6
-        res = analyze_packing(
-            pk, *chosen, r_max=r_max, dr=dr, window_radius=window_radius, tolerance=tolerance,
-            n_points=points, seed=seed, plots=plots,
-        )
+        with overlap_policy("ignore"):  # judged above, once
+            res = analyze_packing(
+                pk, *chosen, r_max=r_max, dr=dr, window_radius=window_radius, tolerance=tolerance,
+                n_points=points, seed=seed, plots=plots,
+            )
         res = {"file": str(file), **res}
         if to_stdout:  # machine-readable output only
             typer.echo(json.dumps(res, indent=1))

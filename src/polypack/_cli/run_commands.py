@@ -20,6 +20,7 @@ def register(app: typer.Typer) -> None:
         dask: bool = typer.Option(False, "--dask", help="Run on a local Dask cluster with --workers workers."),
         check: bool = typer.Option(False, "--check", help="Only validate the study file and print it resolved."),
         force: bool = typer.Option(False, "--force", help="Recompute in an --out folder holding a different study."),
+        wait: float = typer.Option(0.0, "--wait", min=0.0, help="Seconds to wait for another run that owns --out."),
         progress: Optional[bool] = typer.Option(
             None, "--progress/--no-progress", help="Progress bar (default: on a terminal)."
         ),
@@ -49,9 +50,9 @@ def register(app: typer.Typer) -> None:
         try:
             if scheduler or dask:
                 with dask_executor(address=scheduler, n_workers=workers) as ex:
-                    res = run_study(st, out_dir, executor=ex, force=force, progress=progress)
+                    res = run_study(st, out_dir, executor=ex, force=force, progress=progress, wait=wait)
             else:
-                res = run_study(st, out_dir, workers=workers, force=force, progress=progress)
+                res = run_study(st, out_dir, workers=workers, force=force, progress=progress, wait=wait)
         except KeyboardInterrupt:
             done = len(list((out_dir / "realizations").glob("r*.json")))
             typer.echo(

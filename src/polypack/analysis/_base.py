@@ -13,8 +13,56 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ..errors import InvalidInputError
+import contextlib
+import warnings
+
+from ..errors import InvalidInputError, OverlapError, OverlapWarning
 from ..packing import Packing
+
+#: What the estimators do with overlapping input: "warn" (default), "error" or "ignore".
+_OVERLAP = {"policy": "warn"}
+#: Relative gap below which a pair counts as overlapping (round-off of touching pairs is fine).
+OVERLAP_TOLERANCE = 1e-9
+_POLICIES = ("warn", "error", "ignore")
+
+
+@contextlib.contextmanager
+def overlap_policy(policy):
+    """Within the block, estimators ``"warn"`` (default), raise (``"error"``) or stay quiet
+    (``"ignore"``, e.g. for ideal-gas test points) on overlapping input.
+
+    Also usable as a plain call, ``set_overlap_policy("error")``, to change it for good.
+    """
+    old = _OVERLAP["policy"]
+    set_overlap_policy(policy)
+    try:
+        yield
+    finally:
+        _OVERLAP["policy"] = old
+
+
+def set_overlap_policy(policy) -> str:
+    """Set what the estimators do with overlapping input; returns the previous policy."""
+    if policy not in _POLICIES:
+        raise InvalidInputError(f"overlap policy {policy!r}: allowed are {', '.join(map(repr, _POLICIES))}")
+    old = _OVERLAP["policy"]
+    _OVERLAP["policy"] = policy
+    return old
+
+
+def check_overlaps(packing, what="analysis"):
+    """Apply the overlap policy to ``packing`` (see :func:`overlap_policy`)."""
+    policy = _OVERLAP["policy"]
+    if policy == "ignore" or packing.n < 2:
+        return
+    gap, pair = packing.closest_pair()
+    if not gap < -OVERLAP_TOLERANCE:
+        return
+    msg = (f"{what}: the pack has overlapping spheres (spheres {pair[0]} and {pair[1]}, relative gap {gap:.3g}); "
+           "its statistics are not those of a hard-sphere pack")
+    if policy == "error":
+        raise OverlapError(msg)
+    warnings.warn(msg, OverlapWarning, stacklevel=3)
 
 __all__ = [
     "PairMap",
@@ -55,6 +103,7 @@ def check_packing(packing, min_n=1, what="analysis", dims=(3,), walls=False):
         )
     if packing.n < min_n:
         raise InvalidInputError(f"{what} needs a pack with at least {min_n} spheres, got {packing.n}")
+    check_overlaps(packing, what)
     return packing
 
 

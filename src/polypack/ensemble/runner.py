@@ -34,6 +34,7 @@ from .. import _interrupt
 from .._util import atomic_open, check_output_folder, make_folder, progress_bar
 from ..errors import InvalidInputError, PolypackError
 from ..study import Study, load_study
+from ._lock import RunFolderLock
 from .stages import check_available, child_seed_records, preflight, realize
 
 __all__ = ["run_study", "EnsembleResult", "run_realization", "verify_realization", "aggregate", "regenerate"]
@@ -102,8 +103,21 @@ def _paths(out: Path, index: int):
     return base.with_suffix(".gsd"), base.with_suffix(".json")
 
 
-def verify_realization(out, index: int, fingerprint: str):
-    """The record of realization ``index`` if it is complete and verified, else None."""
+def code_record() -> dict:
+    """What a resume trusts besides the study: the polypack version and a digest of the
+    code that computes a realization (:func:`polypack.study.code_digest`)."""
+    from .. import __version__
+    from ..study import code_digest
+
+    return {"polypack": __version__, "digest": code_digest()}
+
+
+def verify_realization(out, index: int, fingerprint: str, code: dict | None = None):
+    """The record of realization ``index`` if it is complete and verified, else None.
+
+    Verified: its GSD's sha256 matches the record, the record belongs to the study with
+    ``fingerprint`` and (when ``code`` is given) was computed by that polypack code.
+    """
     gsd, rec = _paths(Path(out), index)
     if not (gsd.is_file() and rec.is_file()):
         return None
@@ -113,11 +127,32 @@ def verify_realization(out, index: int, fingerprint: str):
         ok = (
             record.get("fingerprint") == fingerprint
             and record.get("index") == index
+            and (code is None or record.get("code") == code)
             and record["files"]["gsd"]["sha256"] == sha256_file(gsd)
         )
     except (OSError, ValueError, KeyError, TypeError):
         return None
     return record if ok else None
+
+
+def realization_status(record) -> str:
+    """The packing status of a realization record: "target", "jammed", "time_budget", ...
+
+    A pack asked for a volume fraction that jammed below it is reported as
+    ``"jammed_below_target"``.
+    """
+    proto = record.get("protocol") or {}
+    status = str(proto.get("status") or "target")
+    if status == "jammed" and proto.get("target", "jammed") != "jammed":
+        return "jammed_below_target"
+    return status
+
+
+def is_complete(record) -> bool:
+    """True if the realization's protocol reached its target (not stopped by a budget,
+    not jammed below a requested volume fraction); others are saved and listed but left
+    out of the ensemble averages."""
+    return realization_status(record) in ("target", "jammed")
 
 
 def _write_realization(out: Path, study: Study, index, packing, record, seconds):
@@ -132,7 +167,7 @@ def _write_realization(out: Path, study: Study, index, packing, record, seconds)
         p = gsd.with_suffix(f".{fmt}")
         pp.io.write(p, packing)
         files[fmt] = {"path": p.name}
-    record = dict(record, fingerprint=study.fingerprint, files=files, seconds=seconds)
+    record = dict(record, fingerprint=study.fingerprint, code=code_record(), files=files, seconds=seconds)
     with atomic_open(rec, "w", encoding="utf-8") as fh:  # written last: marks completion
         json.dump(record, fh, allow_nan=False)
     return record
@@ -161,10 +196,12 @@ class EnsembleResult:
     skipped: list = field(default_factory=list)
     seconds: float = 0.0
     files: dict = field(default_factory=dict)
+    incomplete: list = field(default_factory=list)
+    stale: list = field(default_factory=list)
 
     def summary(self) -> str:
         """A few lines for the terminal: counts, mean volume fraction and file locations."""
-        vf = np.array([r["volume_fraction"] for r in self.records])
+        vf = np.array([r["volume_fraction"] for r in self.records if is_complete(r)])
         lines = [
             f"study {self.study.name!r}: {len(self.records)} realization(s) in {self.out} "
             f"({len(self.computed)} computed, {len(self.skipped)} reused) in {self.seconds:.1f} s",
@@ -172,6 +209,13 @@ class EnsembleResult:
         if vf.size:
             se = vf.std(ddof=1) / math.sqrt(vf.size) if vf.size > 1 else float("nan")
             lines.append(f"  volume fraction {vf.mean():.5f} ± {CI_FACTOR * se:.2g} (95 % CI)")
+        if self.stale:
+            lines.append(f"  {len(self.stale)} saved realization(s) were made by other polypack code and were "
+                         "recomputed")
+        if self.incomplete:
+            shown = ", ".join(f"{i} ({st})" for i, st in self.incomplete[:8])
+            lines.append(f"  warning: {len(self.incomplete)} realization(s) ended on a budget before the target and "
+                         f"are left out of the ensemble averages: {shown}")
         for what, p in self.files.items():
             lines.append(f"  {what:<20s} {p}")
         return "\n".join(lines)
@@ -205,6 +249,7 @@ def run_study(
     force: bool = False,
     progress=None,
     aggregate_results: bool = True,
+    wait: float = 0.0,
 ) -> EnsembleResult:
     """Run all realizations of a study and write every result (see the module docstring).
 
@@ -225,6 +270,8 @@ def run_study(
         Allow ``out`` to hold results of a different study; they are recomputed.
     progress : bool, optional
         Progress bar across realizations (default: on a terminal only).
+    wait : float
+        Seconds to wait for another run that owns ``out`` (default 0: refuse at once).
 
     Returns
     -------
@@ -234,7 +281,13 @@ def run_study(
     -----
     Realization ``i`` uses child ``i`` of ``numpy.random.SeedSequence(study.seed).spawn(P)``
     and is a pure function of the resolved study and that seed, so serial, process-pool and
-    Dask runs give bitwise identical packs.  Workers return the pack to this process, which
+    Dask runs give bitwise identical packs.  A run owns its folder (an advisory lock,
+    :mod:`polypack.ensemble._lock`): a second run on the same folder waits ``wait``
+    seconds, then raises :class:`~polypack.ensemble._lock.FolderBusyError`.  A saved
+    realization is reused only if its record matches the study's fingerprint, the GSD's
+    checksum and the polypack code that computes realizations.  Realizations stopped by
+    a budget (``max_seconds`` ...) are saved with their status and listed in
+    ``EnsembleResult.incomplete``, never averaged into the ensemble results.  Workers return the pack to this process, which
     writes the files, so a Dask cluster needs no shared file system.  Children of
     ``spawn`` do not depend on ``P``: raising ``study.realizations`` reuses finished ones.
     """
@@ -247,17 +300,29 @@ def run_study(
     seeds = child_seed_records(study.seed, study.realizations)
     preflight(study.data, seeds[0])
     out = Path(out)
+    make_folder(out)
+    lock = RunFolderLock(out, study.fingerprint, wait=wait).acquire()
+    try:
+        return _run_locked(study, out, seeds, executor, workers, force, progress, aggregate_results, t0)
+    finally:
+        lock.release()
+
+
+def _run_locked(study, out, seeds, executor, workers, force, progress, aggregate_results, t0):
     _check_out(out, study, force)
     make_folder(out / "realizations")
     for tmp in (out / "realizations").glob(".r[0-9]*.tmp"):  # left by a killed run
         tmp.unlink(missing_ok=True)
     study.write_resolved(out)
 
-    records = {}
+    code = code_record()
+    records, stale = {}, []
     for i in range(study.realizations):
-        rec = verify_realization(out, i, study.fingerprint)
+        rec = verify_realization(out, i, study.fingerprint, code)
         if rec is not None:
             records[i] = rec
+        elif verify_realization(out, i, study.fingerprint) is not None:
+            stale.append(i)  # same study, other polypack code: recomputed
     skipped = sorted(records)
     todo = [i for i in range(study.realizations) if i not in records]
     computed, failures = [], {}
@@ -321,7 +386,8 @@ def run_study(
 
     recs = [records[i] for i in range(study.realizations)]
     _extra_formats(out, study, recs)
-    res = EnsembleResult(out=out, study=study, records=recs, computed=sorted(computed), skipped=skipped)
+    res = EnsembleResult(out=out, study=study, records=recs, computed=sorted(computed), skipped=skipped,
+                         stale=stale, incomplete=[(r["index"], realization_status(r)) for r in recs if not is_complete(r)])
     res.files = {
         "resolved study": out / "study.resolved.toml",
         "packs + records": out / "realizations",
@@ -469,11 +535,19 @@ def aggregate(out, study: Study, records) -> dict:
             w.writerow({k: ("" if r.get(k) is None else r.get(k)) for k in cols})
     files["summary table"] = out / "summary.csv"
 
-    curves = ensemble_curves(records)
+    # realizations stopped by a budget are in summary.csv (with their status) but never
+    # averaged in: the ensemble files name them under "excluded"
+    complete = [r for r in records if is_complete(r)]
+    excluded = [{"index": r["index"], "status": realization_status(r)} for r in records if not is_complete(r)]
+    curves = ensemble_curves(complete) if complete else {}
     with atomic_open(ens / "curves.json", "w", encoding="utf-8") as fh:
-        json.dump({"ci_factor": CI_FACTOR, "n_realizations": len(records), "analyses": curves}, fh)
+        json.dump({"ci_factor": CI_FACTOR, "n_realizations": len(complete), "excluded": excluded,
+                   "analyses": curves}, fh)
+    scalars = ensemble_scalars(complete) if complete else {}
+    if excluded:
+        scalars["excluded"] = excluded
     with atomic_open(ens / "scalars.json", "w", encoding="utf-8") as fh:
-        json.dump(ensemble_scalars(records), fh, indent=1)
+        json.dump(scalars, fh, indent=1)
     files["ensemble curves"] = ens / "curves.json"
     files["ensemble scalars"] = ens / "scalars.json"
     for name, entry in curves.items():
@@ -488,7 +562,8 @@ def aggregate(out, study: Study, records) -> dict:
         fmt = study.data["output"]["plot_format"]
         files["plots"] = ens / f"*.{fmt}"
         plot_curves(curves, ens, fmt, title=study.name)
-        plot_grading(study, records, ens / f"grading.{fmt}", fmt)
+        if complete:
+            plot_grading(study, complete, ens / f"grading.{fmt}", fmt)
     return files
 
 

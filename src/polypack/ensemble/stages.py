@@ -130,21 +130,58 @@ def _check_shake_options(pr):
         raise InvalidInputError(f"protocol.{key}: {msg}" if key else f"protocol: {msg}") from None
 
 
-def preflight(study_data, seed_rec):
-    """Cheap checks on realization 0's sizes before anything runs.
+_KEPLER = math.pi / math.sqrt(18.0)
 
-    The box follows from the sizes and the target volume fraction, so an ``r_max``
-    beyond half the box (which every analysis would reject after the packing) is
-    reported at once with its key path.
+
+def _check_analysis_options(analyses):
+    """Build every estimator with its options (no computation): bad values fail here, with the key path."""
+    import polypack.analysis as pa
+
+    build = {
+        "rdf": lambda o: pa.RDF(o["r_max"], **{k: o[k] for k in ("dr", "method", "scale") if k in o}),
+        "kfunction": lambda o: pa.KFunction(o["r_max"], **{k: o[k] for k in ("dr", "scale") if k in o}),
+        "windows": lambda o: [pa.WindowCounts(window_radius=w, **{k: o[k] for k in ("reference",) if k in o})
+                              for w in (o["window_radius"] if isinstance(o["window_radius"], list)
+                                        else [o["window_radius"]])],
+        "contacts": lambda o: pa.Contacts(**{k: o[k] for k in ("tolerance", "min_contacts") if k in o}),
+        "pores": lambda o: pa.PoreSizes(n_points=o["n_points"], seed=0, **{k: o[k] for k in ("n_grid",) if k in o}),
+    }
+    for name, opts in analyses.items():
+        if name not in build:
+            continue
+        try:
+            build[name](opts)
+        except InvalidInputError as exc:
+            raise InvalidInputError(f"analysis.{name}: {exc}") from None
+
+
+def preflight(study_data, seed_rec):
+    """Cheap checks on realization 0's sizes before anything runs (``run --check`` and run start).
+
+    Every analysis is built with its options; the box follows from the sizes and the
+    target volume fraction, so an ``r_max`` or window beyond half the box, a sphere
+    larger than half the box, or equal spheres above the FCC density (which would fail
+    or jam after every packing) are reported at once with their key paths.
     """
     _check_shake_options(study_data["protocol"])
+    _check_analysis_options(study_data.get("analysis", {}))
     s_sizes, _, _ = stage_seeds(seed_rec)
     sizes = make_sizes(study_data["psd"], s_sizes)
     vf = study_data["protocol"]["volume_fraction"]
     if isinstance(vf, str):
         return
     r = np.asarray(sizes.radii, dtype=np.float64)
+    if np.ptp(r) == 0 and vf > _KEPLER:
+        raise InvalidInputError(
+            f"protocol.volume_fraction = {vf!r}: equal spheres cannot exceed {_KEPLER:.4f} (the FCC density); "
+            "random packs of equal spheres jam near 0.64"
+        )
     half = 0.5 * (unit_ball_volume(3) * float(np.sum(r**3)) / vf) ** (1.0 / 3.0)
+    if 2.0 * float(r.max()) > 0.98 * half:
+        raise InvalidInputError(
+            f"protocol.volume_fraction = {vf!r}: the largest sphere (diameter {2 * float(r.max()):.4g}) would exceed "
+            f"half the periodic box ({half:.4g}) of N={r.size}; use more particles (psd.n) or a smaller size ratio"
+        )
     for name in ("rdf", "kfunction"):
         opts = study_data.get("analysis", {}).get(name)
         if opts and opts["r_max"] > half:
@@ -152,6 +189,22 @@ def preflight(study_data, seed_rec):
                 f"analysis.{name}.r_max = {opts['r_max']!r}: exceeds half the box length {half:.4g} of this study "
                 f"(N={r.size} at volume fraction {vf}); use r_max <= {half:.4g} or more particles"
             )
+    win = study_data.get("analysis", {}).get("windows")
+    if win:
+        species = np.asarray(getattr(sizes, "species", None) if getattr(sizes, "species", None) is not None
+                             else np.zeros(r.size, np.int64), dtype=np.int64)
+        ref = win.get("reference", "species")
+        if ref == "species":
+            a = max(float(np.mean(r[species == k])) for k in np.unique(species))
+        else:
+            a = float(r.max())
+        for rh in (win["window_radius"] if isinstance(win["window_radius"], list) else [win["window_radius"]]):
+            if rh * a > half:
+                raise InvalidInputError(
+                    f"analysis.windows.window_radius = {rh!r}: a window of {rh:g} radii ({rh * a:.4g}) exceeds half "
+                    f"the box length {half:.4g} of this study (N={r.size} at volume fraction {vf}); use at most "
+                    f"{half / a:.4g} or more particles"
+                )
 
 
 def make_packing(sizes, protocol: dict, seed):
