@@ -227,3 +227,22 @@ def test_python_api_errors_are_polypack_errors():
     for args in [([[0.0, 0, 0]], "ab", [1, 1, 1]), ([[0.0, 0, 0]], [1.0], "abc"), ("xx", [1.0], [1, 1, 1])]:
         with pytest.raises(pp.PolypackError, match="must be numbers"):
             pp.Packing(*args)
+
+
+def test_lock_held_only_by_orphans_of_a_dead_owner_is_stale(tmp_path):
+    """A killed run whose forked workers still hold the lock file: the next run takes over."""
+    code = (
+        "import os, sys, time; from polypack.ensemble._lock import RunFolderLock; "
+        f"l = RunFolderLock({str(tmp_path / 'o')!r}, 'x').acquire(); "
+        "pid = os.fork()\n"
+        "if pid == 0:\n    time.sleep(60)\n"  # the child keeps the flocked file open
+        "else:\n    print(pid, flush=True); os._exit(0)\n"
+    )
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    orphan = int(proc.stdout.readline())
+    proc.wait()
+    try:
+        with RunFolderLock(tmp_path / "o", "fp") as lock:
+            assert lock.previous["pid"] == proc.pid
+    finally:
+        os.kill(orphan, signal.SIGKILL)

@@ -74,7 +74,17 @@ class RunFolderLock:
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
+                owner = self._owner()
+                # held, but the recorded owner on this host is dead: the holders are orphans
+                # (e.g. pool workers forked with the lock open); the lock is stale, so a new
+                # lock file replaces it (the orphans keep the old, unlinked one)
+                stale = (owner and owner.get("host") == socket.gethostname() and owner.get("pid")
+                         and not _alive(int(owner["pid"])) and os.fstat(fd).st_ino == os.stat(self.path).st_ino)
                 os.close(fd)
+                if stale:
+                    self.previous = owner
+                    os.unlink(self.path)
+                    return self._try()
                 return False
         owner = self._owner()
         host = socket.gethostname()
