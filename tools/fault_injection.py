@@ -96,12 +96,14 @@ class SafePointInjector:
 
     def __init__(self):
         self.count = 0
+        self.names = []
         self.fire_at = None
         self.fired_in = None
         self._saved = []
 
     def _hit(self, name):
         self.count += 1
+        self.names.append(name)
         if self.fire_at is not None and self.count == self.fire_at:
             self.fired_in = name
             signal.raise_signal(signal.SIGINT)
@@ -147,8 +149,11 @@ class SafePointInjector:
         self._saved.clear()
 
 
-def sweep_safe_points(study, points=None, workdir=None, log=print):
+def sweep_safe_points(study, points=None, workdir=None, log=print, every=None):
     """SIGINT at call ``k`` for every ``k`` in ``points`` (default: all); returns a dict of counts.
+
+    ``every=K`` instead tries every K-th point plus the first call of every kind (each
+    kernel, each file written), so every phase is covered however the counts shift.
 
     The reference run counts the points.  After each interrupted run the saved
     realizations are compared with the reference, the run is resumed, and the resumed
@@ -162,10 +167,15 @@ def sweep_safe_points(study, points=None, workdir=None, log=print):
     pp.ensemble.run_study(study, ref_dir, progress=False)  # compiles everything first
     inj.install()
     try:
-        inj.count = 0
+        inj.count, inj.names = 0, []
         shutil.rmtree(ref_dir)
         pp.ensemble.run_study(study, ref_dir, progress=False)
         total = inj.count
+        if every is not None:
+            first = {}
+            for k, name in enumerate(inj.names, start=1):
+                first.setdefault(name.split(" ")[0] if name.startswith("write") else name, k)
+            points = sorted(set(range(1, total + 1, every)) | set(first.values()))
         ref, ref_ens = run_results(ref_dir)
         ks = list(range(1, total + 1)) if points is None else [k for k in points if 1 <= k <= total]
         res = {"points": total, "tried": 0, "interrupted": 0, "finished": 0, "wrong_saved": 0, "wrong_resume": 0,
