@@ -105,6 +105,9 @@ def test_load_study_file_errors(tmp_path):
         load_study(bad)
     ok = tmp_path / "mystudy.toml"
     ok.write_text("[study]\nseed = 7\n")
+    with pytest.raises(InvalidInputError, match="no \\[psd\\] or \\[protocol\\] section"):
+        load_study(ok)  # a study file names its size distribution and protocol (no silent default)
+    ok.write_text('[study]\nseed = 7\n[psd]\nmodel = "bimodal"\n[protocol]\nkind = "crm"\n')
     assert load_study(ok).name == "mystudy"
 
 
@@ -138,7 +141,13 @@ def test_cli_check(tmp_path, capsys):
     assert ei.value.code == 1
     err = capsys.readouterr().err
     assert "error: protocol.volume_fraction = 1.2: must be in (0, 1)" in err
-    f.write_text('[protocol]\nkind = "crm"\nvolume_fraction = 0.5\n[analysis.rdf]\nr_max = 1.0\n')
+    nopsd = tmp_path / "nopsd.toml"
+    nopsd.write_text('[protocol]\nkind = "crm"\nvolume_fraction = 0.5\n')
+    with pytest.raises(SystemExit):  # a study file must name its size distribution
+        main(["run", "--check", str(nopsd)])
+    assert "no [psd] section" in capsys.readouterr().err
+    f.write_text('[psd]\nmodel = "bimodal"\n[protocol]\nkind = "crm"\nvolume_fraction = 0.5\n'
+                 '[analysis.rdf]\nr_max = 1.0\n')
     main(["run", "--check", str(f)])
     out = capsys.readouterr().out
     assert "valid" in out and "[analysis.rdf]" in out and "dr = 0.02" in out

@@ -586,6 +586,7 @@ def load_study(path_or_data) -> Study:
         raise InvalidInputError(f"study file {str(path)!r} is not a UTF-8 text file") from None
     except tomllib.TOMLDecodeError as exc:
         raise InvalidInputError(f"{path}: not valid TOML ({exc})") from None
+    resolved = validate(data, name=path.stem)  # errors of the sections present come first
     missing = [sec for sec in REQUIRED_SECTIONS if sec not in data]
     if missing:
         what = "is empty" if not data else f"has no [{'] or ['.join(missing)}] section"
@@ -593,7 +594,7 @@ def load_study(path_or_data) -> Study:
             f"study file {str(path)!r} {what}: a study names its size distribution ([psd] model = ...) "
             "and its packing protocol ([protocol] kind, volume_fraction); see docs/run.md"
         )
-    st = Study(validate(data, name=path.stem), source=path)
+    st = Study(resolved, source=path)
     return st
 
 
