@@ -351,3 +351,12 @@ def test_wedge_under_an_overhang_when_the_drop_height_has_no_pocket():
             n.append(d / np.hypot(*d))
         ab = np.linalg.solve(np.array(n).T, [0.0, 1.0])  # gravity balanced by the two contacts
         assert np.all(ab >= 0)
+
+
+def test_kernel_warmup_places_a_floor_row():
+    from polypack._kernels import deposit as kd
+
+    kd.warmup()  # compiles; four equal disks on a floor 4 wide form one touching row
+    pos, rad, sup, _ = deposit_arrays(np.full(4, 0.5), 4.0, False)
+    assert np.allclose(pos, [[0.5, 0.5], [1.5, 0.5], [2.5, 0.5], [3.5, 0.5]])
+    assert sup[0].tolist() == [FLOOR, LEFT_WALL] and sup[1].tolist() == [FLOOR, 0]

@@ -768,3 +768,20 @@ def disks_rectangle_area(pos, rad, x0, x1, y0, y1, width, periodic):
         else:
             total += disk_rectangle_area(x, y, r, x0, x1, y0, y1)
     return total
+
+
+def warmup():
+    """Compile the kernels of this module on a tiny input (four equal disks, both boundaries)."""
+    rad = np.full(4, 0.5)
+    for periodic in (0.0, 1.0):
+        pos = np.zeros((4, 2))
+        support = np.zeros((4, 2), np.int64)
+        params = np.zeros(int(DepositParam.N_PARAMS))
+        params[DepositParam.WIDTH] = 4.0
+        params[DepositParam.PERIODIC] = periodic
+        params[DepositParam.TOL] = 1e-10
+        params[DepositParam.RMAX] = 0.5
+        cap = 2 * 4 + 8
+        state = np.zeros(int(DepositState.N_STATE), np.int64)
+        deposit_disks(rad, 0, 4, pos, support, params, np.zeros(cap, np.int64), np.zeros(cap), np.zeros(cap), state)
+        disks_rectangle_area(pos, rad, 0.0, 4.0, 0.0, 1.0, 4.0, periodic != 0.0)
