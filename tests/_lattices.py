@@ -30,3 +30,13 @@ def bcc(cells=4, d=1.0):
     g = np.stack(np.meshgrid(*[np.arange(cells)] * 3, indexing="ij"), -1).reshape(-1, 3)
     pos = ((g[:, None, :] + basis[None]) * a).reshape(-1, 3) + 0.1 * a
     return pp.Packing(pos, np.full(len(pos), 0.5 * d), np.full(3, cells * a))
+
+
+def diamond(cells=2, d=1.0):
+    """Diamond lattice of touching spheres: FCC plus the basis (1/4, 1/4, 1/4) a, a = 4 d / sqrt(3)."""
+    a = 4.0 * d / np.sqrt(3.0)
+    fccb = np.array([[0, 0, 0], [0.5, 0.5, 0], [0.5, 0, 0.5], [0, 0.5, 0.5]])
+    basis = np.concatenate([fccb, fccb + 0.25])
+    g = np.stack(np.meshgrid(*[np.arange(cells)] * 3, indexing="ij"), -1).reshape(-1, 3)
+    pos = ((g[:, None, :] + basis[None]) * a).reshape(-1, 3) + 0.05 * a
+    return pp.Packing(pos, np.full(len(pos), 0.5 * d), np.full(3, cells * a))

@@ -169,6 +169,175 @@ def components(n, bi, bj, shift, live_bond):
     return label, n_comp, spans[:n_comp].copy()
 
 
+@njit(cache=True)
+def _cross_matrix(a, out):
+    """``out = [a]_x`` with ``[a]_x v = a x v``."""
+    out[0, 0] = 0.0
+    out[0, 1] = -a[2]
+    out[0, 2] = a[1]
+    out[1, 0] = a[2]
+    out[1, 1] = 0.0
+    out[1, 2] = -a[0]
+    out[2, 0] = -a[1]
+    out[2, 1] = a[0]
+    out[2, 2] = 0.0
+
+
+@njit(cache=True)
+def assemble(n, bi, bj, kn, ks, normal, branch, arm_i, arm_j, ell, rotations):
+    """Blocks of the linear-response problem of a 3D bonded network.
+
+    Degrees of freedom per particle: translation ``u`` (3) and, when ``rotations``,
+    the rotation ``w = ell * theta`` (3, scaled to length units so both halves of a
+    block have the same scale). The relative displacement of the contact point of
+    bond ``c`` is ``delta = B_i q_i + B_j q_j + A eps`` with
+    ``B_i = [-I, [a_i]_x / ell]``, ``B_j = [I, -[a_j]_x / ell]`` (``a`` the lever
+    arms from each centre to the contact point) and ``A eps = eps b`` for the Voigt
+    strain ``eps`` with engineering shears; the spring matrix is
+    ``K = kn n n^T + ks (I - n n^T)``.
+
+    Returns
+    -------
+    diag : (n, nd, nd)
+        Diagonal blocks ``sum B_p^T K B_p`` of the Hessian.
+    off : (m, nd, nd)
+        Block ``B_i^T K B_j`` of each bond (row ``bi``, column ``bj``); its transpose is
+        the ``(bj, bi)`` block.
+    rhs : (n, nd, 6)
+        ``sum B_p^T K A``: the force (per unit strain) that the affine deformation
+        leaves on each degree of freedom.
+    caff : (6, 6)
+        ``sum A^T K A`` (times the volume, the affine stiffness).
+    """
+    m = bi.shape[0]
+    nd = 6 if rotations else 3
+    diag = np.zeros((n, nd, nd))
+    off = np.zeros((m, nd, nd))
+    rhs = np.zeros((n, nd, 6))
+    caff = np.zeros((6, 6))
+    K = np.empty((3, 3))
+    A = np.zeros((3, 6))
+    Bi = np.zeros((3, nd))
+    Bj = np.zeros((3, nd))
+    X = np.empty((3, 3))
+    KBi = np.empty((3, nd))
+    KBj = np.empty((3, nd))
+    KA = np.empty((3, 6))
+    for c in range(m):
+        for r in range(3):
+            for s in range(3):
+                K[r, s] = (kn[c] - ks[c]) * normal[c, r] * normal[c, s]
+            K[r, r] += ks[c]
+        b0 = branch[c, 0]
+        b1 = branch[c, 1]
+        b2 = branch[c, 2]
+        A[0, 0] = b0
+        A[0, 4] = 0.5 * b2
+        A[0, 5] = 0.5 * b1
+        A[1, 1] = b1
+        A[1, 3] = 0.5 * b2
+        A[1, 5] = 0.5 * b0
+        A[2, 2] = b2
+        A[2, 3] = 0.5 * b1
+        A[2, 4] = 0.5 * b0
+        for r in range(3):
+            for s in range(3):
+                Bi[r, s] = -1.0 if r == s else 0.0
+                Bj[r, s] = 1.0 if r == s else 0.0
+        if rotations:
+            _cross_matrix(arm_i[c], X)
+            for r in range(3):
+                for s in range(3):
+                    Bi[r, 3 + s] = X[r, s] / ell
+            _cross_matrix(arm_j[c], X)
+            for r in range(3):
+                for s in range(3):
+                    Bj[r, 3 + s] = -X[r, s] / ell
+        for r in range(3):
+            for s in range(nd):
+                ti = 0.0
+                tj = 0.0
+                for t in range(3):
+                    ti += K[r, t] * Bi[t, s]
+                    tj += K[r, t] * Bj[t, s]
+                KBi[r, s] = ti
+                KBj[r, s] = tj
+            for s in range(6):
+                ta = 0.0
+                for t in range(3):
+                    ta += K[r, t] * A[t, s]
+                KA[r, s] = ta
+        p = bi[c]
+        q = bj[c]
+        for r in range(nd):
+            for s in range(nd):
+                dii = 0.0
+                djj = 0.0
+                dij = 0.0
+                for t in range(3):
+                    dii += Bi[t, r] * KBi[t, s]
+                    djj += Bj[t, r] * KBj[t, s]
+                    dij += Bi[t, r] * KBj[t, s]
+                diag[p, r, s] += dii
+                diag[q, r, s] += djj
+                off[c, r, s] = dij
+            for s in range(6):
+                fi = 0.0
+                fj = 0.0
+                for t in range(3):
+                    fi += Bi[t, r] * KA[t, s]
+                    fj += Bj[t, r] * KA[t, s]
+                rhs[p, r, s] += fi
+                rhs[q, r, s] += fj
+        for r in range(6):
+            for s in range(6):
+                v = 0.0
+                for t in range(3):
+                    v += A[t, r] * KA[t, s]
+                caff[r, s] += v
+    return diag, off, rhs, caff
+
+
+@njit(cache=True)
+def bond_stress(bi, bj, kn, ks, normal, branch, arm_i, arm_j, ell, rotations, q, eps):
+    """Sum over bonds of ``f b^T`` (3x3) for nodal displacements ``q`` (n, nd) and Voigt strain ``eps``.
+
+    ``f = K delta`` is the force that particle ``j`` exerts on ``i`` (tension positive).
+    """
+    m = bi.shape[0]
+    out = np.zeros((3, 3))
+    d = np.empty(3)
+    e = np.empty((3, 3))
+    e[0, 0] = eps[0]
+    e[1, 1] = eps[1]
+    e[2, 2] = eps[2]
+    e[1, 2] = e[2, 1] = 0.5 * eps[3]
+    e[0, 2] = e[2, 0] = 0.5 * eps[4]
+    e[0, 1] = e[1, 0] = 0.5 * eps[5]
+    for c in range(m):
+        p = bi[c]
+        s = bj[c]
+        for r in range(3):
+            d[r] = q[s, r] - q[p, r]
+            for t in range(3):
+                d[r] += e[r, t] * branch[c, t]
+        if rotations:
+            # theta x a = -a x theta; theta = w / ell
+            ti = q[p, 3:6] / ell
+            tj = q[s, 3:6] / ell
+            ai = arm_i[c]
+            aj = arm_j[c]
+            d[0] += (tj[1] * aj[2] - tj[2] * aj[1]) - (ti[1] * ai[2] - ti[2] * ai[1])
+            d[1] += (tj[2] * aj[0] - tj[0] * aj[2]) - (ti[2] * ai[0] - ti[0] * ai[2])
+            d[2] += (tj[0] * aj[1] - tj[1] * aj[0]) - (ti[0] * ai[1] - ti[1] * ai[0])
+        dn = d[0] * normal[c, 0] + d[1] * normal[c, 1] + d[2] * normal[c, 2]
+        for r in range(3):
+            f = ks[c] * d[r] + (kn[c] - ks[c]) * dn * normal[c, r]
+            for t in range(3):
+                out[r, t] += f * branch[c, t]
+    return out
+
+
 def warmup():
     """Compile the kernels of this module on a tiny input."""
     bi = np.array([0, 1, 2], np.int64)
@@ -178,3 +347,7 @@ def warmup():
     peel(3, bi, bj, live, 2)
     bond_angle_cosines(3, bi, bj, nrm)
     components(3, bi, bj, np.zeros((3, 3), np.int64), live)
+    k = np.ones(3)
+    for rot in (True, False):
+        assemble(3, bi, bj, k, k, nrm, nrm, 0.5 * nrm, -0.5 * nrm, 0.5, rot)
+        bond_stress(bi, bj, k, k, nrm, nrm, 0.5 * nrm, -0.5 * nrm, 0.5, rot, np.zeros((3, 6 if rot else 3)), np.ones(6))

@@ -26,6 +26,10 @@ _LAZY = {
     "ShearInterrupted": "dem",
     "critical_time_step": "dem",
     "static_shear_modulus": "dem",
+    # exact elastic tensor (t14)
+    "elastic_tensor": "elastic",
+    "ElasticTensor": "elastic",
+    "voigt_average": "elastic",
 }
 
 __all__ = sorted(_LAZY)

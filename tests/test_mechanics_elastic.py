@@ -1,0 +1,254 @@
+"""Exact elastic tensor of bonded networks: lattices in closed form, random packs, an independent optimiser."""
+
+import numpy as np
+import pytest
+import scipy.optimize
+from _lattices import bcc, diamond, fcc, simple_cubic
+
+import polypack as pp
+from polypack.errors import InfeasibleError, InvalidInputError
+from polypack.mechanics import BondNetwork, elastic_tensor, voigt_average
+
+KN, KS = 100.0, 10.0
+S2, S3 = np.sqrt(2.0), np.sqrt(3.0)
+
+
+def cubic_tensor(c11, c12, c44):
+    c = np.zeros((6, 6))
+    c[:3, :3] = c12
+    c[np.arange(3), np.arange(3)] = c11
+    c[np.arange(3, 6), np.arange(3, 6)] = c44
+    return c
+
+
+@pytest.fixture(scope="module")
+def jammed():
+    return pp.pack(np.full(250, 0.5), volume_fraction="jammed", seed=11)
+
+
+@pytest.fixture(scope="module")
+def jammed_net(jammed):
+    return BondNetwork.from_packing(jammed, epsilon=0.01)
+
+
+# ------------------------------------------------------------------ lattices
+@pytest.mark.parametrize("rotations", [True, False])
+@pytest.mark.parametrize("solver", ["direct", "cg"])
+@pytest.mark.parametrize("d", [1.0, 0.37])
+def test_fcc_closed_form(rotations, solver, d):
+    """FCC, nearest-neighbour bonds of length d (issue 14): 1e-6 relative (round-off is ~1e-14)."""
+    net = BondNetwork.from_packing(fcc(cells=3, d=d), normal_stiffness=KN, shear_stiffness=KS)
+    et = elastic_tensor(net, rotations=rotations, solver=solver)
+    want = cubic_tensor(S2 * (KN + KS) / d, (KN - KS) / (S2 * d), (KN + KS) / (S2 * d))
+    np.testing.assert_allclose(et.stiffness, want, rtol=1e-6, atol=1e-6 * want.max())
+    np.testing.assert_allclose(et.affine_stiffness, want, rtol=1e-6, atol=1e-6 * want.max())
+    # centrosymmetric and torque-free under any strain: no non-affine motion at all
+    assert np.nanmax(np.abs(et.nonaffine_displacements)) < 1e-9 * d
+
+
+def test_simple_cubic_and_bcc_closed_forms():
+    """Derived in docs/mechanics.md: SC C11 = kn/d, C12 = 0, C44 = ks/(2d);
+    BCC C11 = (kn + 2ks)/(sqrt3 d), C12 = (kn - ks)/(sqrt3 d), C44 = (2kn + ks)/(2 sqrt3 d)."""
+    for pk, want, floppy in [
+        (simple_cubic(cells=4), cubic_tensor(KN, 0.0, KS / 2), 12),
+        (bcc(cells=3), cubic_tensor((KN + 2 * KS) / S3, (KN - KS) / S3, (2 * KN + KS) / (2 * S3)), 3),
+    ]:
+        net = BondNetwork.from_packing(pk)
+        et = elastic_tensor(net, solver="direct")
+        np.testing.assert_allclose(et.stiffness, want, rtol=1e-6, atol=1e-6 * want.max())
+        # SC: spins about x staggered in each yz plane (3 axes x 4 planes); BCC: opposite
+        # uniform spins of the two sublattices (3 axes). Both cost no energy.
+        assert et.floppy_modes == floppy
+        assert elastic_tensor(net, rotations=False, solver="direct").floppy_modes == 0
+
+
+@pytest.mark.parametrize("rotations", [True, False])
+def test_diamond_internal_relaxation(rotations):
+    """Diamond (derived in docs/mechanics.md): the sublattices shift under shear, so the
+    relaxed C44 = C44_aff - sqrt3 (kn-ks)^2 / (12 d (kn+2ks)) is below the affine
+    C44_aff = sqrt3 (4kn+2ks)/(48 d); C11 = sqrt3 (kn+2ks)/(12 d), C12 = sqrt3 (kn-ks)/(12 d)
+    are not relaxed. Rotations decouple by symmetry."""
+    net = BondNetwork.from_packing(diamond(cells=2))
+    et = elastic_tensor(net, rotations=rotations)
+    c44a = S3 * (4 * KN + 2 * KS) / 48
+    c44 = c44a - S3 * (KN - KS) ** 2 / (12 * (KN + 2 * KS))
+    c11, c12 = S3 * (KN + 2 * KS) / 12, S3 * (KN - KS) / 12
+    np.testing.assert_allclose(et.stiffness, cubic_tensor(c11, c12, c44), rtol=1e-6, atol=1e-6 * c11)
+    np.testing.assert_allclose(et.affine_stiffness, cubic_tensor(c11, c12, c44a), rtol=1e-6, atol=1e-6 * c11)
+    # the two sublattices move rigidly against each other along x under gamma_23
+    u = et.nonaffine_displacements[3]
+    sub = np.arange(net.n) % 8 >= 4
+    shift = -(KN - KS) / ((KN + 2 * KS) * S3)  # per unit gamma_23, B relative to A (derivation)
+    np.testing.assert_allclose(u[sub].mean(0) - u[~sub].mean(0), [shift, 0, 0], atol=1e-8)
+
+
+# -------------------------------------------------------------- random packs
+def test_random_pack_bounds_symmetry_and_affine_formula(jammed, jammed_net):
+    et = elastic_tensor(jammed_net)
+    c, ca = et.stiffness, et.affine_stiffness
+    scale = np.abs(ca).max()
+    # symmetric, positive semi-definite, relaxed <= affine in every strain mode
+    assert et.asymmetry < 1e-8
+    assert np.linalg.eigvalsh(c)[0] > -1e-9 * scale
+    assert np.linalg.eigvalsh(ca - c)[0] > -1e-9 * scale
+    assert np.all(np.diag(c) < np.diag(ca))
+    # affine isotropic shear modulus of equal spheres: phi Z (kn + 1.5 ks) / (5 pi d);
+    # bond lengths lie in [d, 1.01 d], so the sum of b^2 exceeds Z d^2 N/2 by < 2 %
+    phi, z, d = jammed.volume_fraction, jammed_net.coordination, 1.0
+    g_formula = phi * z * (KN + 1.5 * KS) / (5 * np.pi * d)
+    assert et.affine_shear_modulus == pytest.approx(g_formula, rel=0.02)
+    assert et.affine_shear_modulus >= g_formula * (1 - 1e-12)
+    # a random jammed pack relaxes substantially (non-affine motion), but stays rigid
+    assert 0.2 < et.relaxation_ratio < 0.9
+    assert np.all(np.isnan(et.nonaffine_displacements[:, jammed_net.rattlers]))
+    k, g = voigt_average(c)
+    assert (k, g) == (et.bulk_modulus, et.shear_modulus)
+
+
+def test_rotations_only_soften(jammed_net):
+    """More degrees of freedom can only lower the relaxed energy: C(rot) <= C(no rot)."""
+    a = elastic_tensor(jammed_net, rotations=True).stiffness
+    b = elastic_tensor(jammed_net, rotations=False).stiffness
+    assert np.linalg.eigvalsh(b - a)[0] > -1e-9 * np.abs(b).max()
+    assert np.trace(b - a) > 1e-3 * np.trace(b)
+
+
+def test_solvers_agree_and_floppy_count_matches_dense_spectrum(jammed_net):
+    ed = elastic_tensor(jammed_net, solver="direct")
+    ec = elastic_tensor(jammed_net, solver="cg", tol=1e-12)
+    np.testing.assert_allclose(ec.stiffness, ed.stiffness, rtol=0, atol=1e-8 * np.abs(ed.stiffness).max())
+    # floppy modes: count eigenvalues of the scaled, pinned Hessian below 1e-9 densely
+    from polypack.mechanics.elastic import _hessian
+
+    net = jammed_net
+    act = ~net.rattlers
+    idx = np.cumsum(act) - 1
+    on = act[net.i] & act[net.j]
+    h, _, _ = _hessian(int(act.sum()), idx[net.i[on]], idx[net.j[on]], net.normal_stiffness[on],
+                       net.shear_stiffness[on], np.ascontiguousarray(net.normal[on]),
+                       np.ascontiguousarray(net.branch[on]), np.ascontiguousarray(net.lever_arm_i[on]),
+                       np.ascontiguousarray(net.lever_arm_j[on]), 0.5, True)
+    hd = h.toarray()[3:, 3:]
+    s = 1 / np.sqrt(np.diag(hd))
+    ev = np.linalg.eigvalsh(hd * s[:, None] * s[None, :])
+    assert ed.floppy_modes == int(np.count_nonzero(ev < 1e-9))
+
+
+def test_invariance_translation_and_relabelling(jammed, jammed_net):
+    ref = elastic_tensor(jammed_net).stiffness
+    tol = 1e-8 * np.abs(ref).max()
+    moved = jammed.replace(positions=jammed.positions + np.array([0.37, -1.9, 2.6]))
+    np.testing.assert_allclose(elastic_tensor(BondNetwork.from_packing(moved)).stiffness, ref, atol=tol)
+    perm = np.random.default_rng(4).permutation(jammed.n)
+    relab = jammed.replace(positions=jammed.positions[perm], radii=jammed.radii[perm])
+    et = elastic_tensor(BondNetwork.from_packing(relab))
+    np.testing.assert_allclose(et.stiffness, ref, atol=tol)
+    # the non-affine field moves with the labels
+    e0 = elastic_tensor(jammed_net)
+    np.testing.assert_allclose(et.nonaffine_displacements[:, :, :], e0.nonaffine_displacements[:, perm],
+                               atol=1e-7, equal_nan=True)
+
+
+def _energy_and_grad(q, net, eps_voigt, nd):
+    """Harmonic bond energy written directly (numpy only) and its gradient."""
+    n = net.n
+    q = q.reshape(n, nd)
+    e = np.array([[eps_voigt[0], eps_voigt[5] / 2, eps_voigt[4] / 2],
+                  [eps_voigt[5] / 2, eps_voigt[1], eps_voigt[3] / 2],
+                  [eps_voigt[4] / 2, eps_voigt[3] / 2, eps_voigt[2]]])
+    i, j, nrm = net.i, net.j, net.normal
+    delta = q[j, :3] - q[i, :3] + net.branch @ e.T
+    if nd == 6:
+        delta += np.cross(q[j, 3:], net.lever_arm_j) - np.cross(q[i, 3:], net.lever_arm_i)
+    dn = np.einsum("ij,ij->i", delta, nrm)
+    f = net.shear_stiffness[:, None] * delta + ((net.normal_stiffness - net.shear_stiffness) * dn)[:, None] * nrm
+    energy = 0.5 * np.einsum("ij,ij->", f, delta)
+    g = np.zeros((n, nd))
+    np.add.at(g[:, :3], j, f)
+    np.add.at(g[:, :3], i, -f)
+    if nd == 6:  # d/dtheta of f . (theta x a) = a x f
+        np.add.at(g[:, 3:], j, np.cross(net.lever_arm_j, f))
+        np.add.at(g[:, 3:], i, -np.cross(net.lever_arm_i, f))
+    return energy, g.ravel(), f
+
+
+@pytest.mark.parametrize("rotations", [True, False])
+def test_finite_strain_with_independent_optimiser(rotations):
+    """Apply +-1e-6 strain, minimise the bond energy with scipy's Newton-CG, compare sigma = sum f b / V."""
+    pk = pp.pack(np.full(120, 0.5), volume_fraction="jammed", seed=21)
+    net = BondNetwork.from_packing(pk, epsilon=0.02)
+    et = elastic_tensor(net, rotations=rotations)
+    nd = 6 if rotations else 3
+    h = 1e-6
+    for mode in (0, 3, 5):
+        sig = []
+        for sgn in (1.0, -1.0):
+            eps = np.zeros(6)
+            eps[mode] = sgn * h
+            g0 = _energy_and_grad(np.zeros(net.n * nd), net, eps, nd)[1]
+            res = scipy.optimize.minimize(
+                lambda q, *a: _energy_and_grad(q, *a)[0], np.zeros(net.n * nd), args=(net, eps, nd),
+                jac=lambda q, *a: _energy_and_grad(q, *a)[1], method="Newton-CG",
+                # the energy is quadratic: H v = grad(v) - grad(0) exactly
+                hessp=lambda q, v, *a: _energy_and_grad(v, *a)[1] - g0,
+                options={"maxiter": 200, "xtol": 1e-14})
+            f = _energy_and_grad(res.x, net, eps, nd)[2]
+            s = np.einsum("ci,cj->ij", f, net.branch) / pk.box_volume
+            if rotations:  # torque balance at equilibrium makes sum f b^T symmetric
+                assert np.abs(s - s.T).max() < 1e-3 * np.abs(s).max()
+            # particles held against rotation carry torques: the work-conjugate stress is
+            # the symmetric part
+            s = 0.5 * (s + s.T)
+            sig.append(np.array([s[0, 0], s[1, 1], s[2, 2], s[1, 2], s[0, 2], s[0, 1]]))
+        col = (sig[0] - sig[1]) / (2 * h)
+        # 1e-4 of the largest entry: well above the optimiser's stopping error, far below
+        # the non-affine relaxation (> 5 % of the largest entry, checked next)
+        np.testing.assert_allclose(col, et.stiffness[:, mode], atol=1e-4 * np.abs(et.stiffness).max())
+        assert np.abs(col - et.affine_stiffness[:, mode]).max() > 0.05 * np.abs(et.stiffness).max()
+
+
+# --------------------------------------------------------------------- units
+def test_si_units_from_radius(jammed_net):
+    et = elastic_tensor(jammed_net)
+    si = elastic_tensor(jammed_net, radius=0.25e-6)
+    # stiffness per length: lengths scaled by 0.25e-6 / 0.5 divide the moduli by that factor
+    np.testing.assert_allclose(si.stiffness, et.stiffness * 0.5 / 0.25e-6, rtol=1e-12)
+    assert si.units == "Pa" and si.to_dict()["shear_modulus_MPa"] == pytest.approx(si.shear_modulus * 1e-6)
+    np.testing.assert_allclose(si.reduced_stiffness, et.reduced_stiffness, rtol=1e-12)
+    np.testing.assert_allclose(et.reduced_stiffness, et.stiffness * 1.0 / KN, rtol=1e-12)
+
+
+# -------------------------------------------------------------------- errors
+def test_disconnected_network_is_an_error():
+    pk = pp.pack(np.full(200, 0.5), volume_fraction=0.3, seed=2)
+    net = BondNetwork.from_packing(pk, epsilon=0.05)
+    with pytest.raises(InfeasibleError, match="disconnected"):
+        elastic_tensor(net)
+
+
+def test_bad_input(jammed):
+    with pytest.raises(InvalidInputError, match="zero-gap"):
+        elastic_tensor(BondNetwork.from_packing(jammed, reference="zero-gap"))
+    net = BondNetwork.from_packing(jammed)
+    with pytest.raises(InvalidInputError, match="solver='lu'"):
+        elastic_tensor(net, solver="lu")
+    with pytest.raises(InvalidInputError, match="radius=-1"):
+        elastic_tensor(net, radius=-1.0)
+    with pytest.raises(InvalidInputError, match="BondNetwork"):
+        elastic_tensor(jammed)
+
+
+class _Disks:
+    def __init__(self):
+        rng = np.random.default_rng(0)
+        self.positions = rng.random((50, 2)) * 10
+        self.radii = np.full(50, 0.8)
+        self.box = np.array([10.0, 10.0])
+        self.species = np.zeros(50, np.int64)
+        self.dim, self.periodic = 2, (True, True)
+
+
+def test_2d_is_refused():
+    net = BondNetwork.from_packing(_Disks())
+    with pytest.raises(InvalidInputError, match="dim=2"):
+        elastic_tensor(net)
