@@ -238,17 +238,12 @@ def test_bad_input(jammed):
         elastic_tensor(jammed)
 
 
-class _Disks:
-    def __init__(self):
-        rng = np.random.default_rng(0)
-        self.positions = rng.random((50, 2)) * 10
-        self.radii = np.full(50, 0.8)
-        self.box = np.array([10.0, 10.0])
-        self.species = np.zeros(50, np.int64)
-        self.dim, self.periodic = 2, (True, True)
-
-
 def test_2d_is_refused():
-    net = BondNetwork.from_packing(_Disks())
+    rng = np.random.default_rng(0)
+    disks = pp.Packing(rng.random((50, 2)) * 10, np.full(50, 0.8), [10.0, 10.0])
     with pytest.raises(InvalidInputError, match="dim=2"):
-        elastic_tensor(net)
+        elastic_tensor(BondNetwork.from_packing(disks))
+    walls = pp.Packing(rng.random((50, 3)) * [10, 10, 8] + [0, 0, 1], np.full(50, 0.8), 10.0,
+                       periodic=(True, True, False))
+    with pytest.raises(InvalidInputError, match="periodic"):
+        elastic_tensor(BondNetwork.from_packing(walls, epsilon=0.5))

@@ -193,21 +193,12 @@ def test_no_bonds_is_an_error():
         BondNetwork.from_packing(pk)
 
 
-class _Disks:
-    """Duck-typed 2D pack with a wall on y (the dimension-aware Packing is not on main yet)."""
-
-    def __init__(self, pos, radii, box, periodic):
-        self.positions, self.radii, self.box = pos, radii, np.asarray(box, float)
-        self.species = np.zeros(len(radii), np.int64)
-        self.dim, self.periodic = 2, periodic
-
-
 def test_2d_and_wall_axes_against_brute_force():
     rng = np.random.default_rng(2)
     n, box = 400, np.array([20.0, 12.0])
-    pos = rng.random((n, 2)) * box
     rad = rng.uniform(0.3, 0.6, n)
-    pk = _Disks(pos, rad, box, (True, False))
+    pos = rng.random((n, 2)) * (box - [0, 1.2]) + [0, 0.6]
+    pk = pp.Packing(pos, rad, box, periodic=(True, False))
     net = BondNetwork.from_packing(pk, epsilon=0.0)
     d = pos[None] - pos[:, None]
     d[..., 0] -= box[0] * np.round(d[..., 0] / box[0])  # periodic x only

@@ -111,26 +111,12 @@ def _geometry(packing):
 
 
 def _candidate_pairs(packing, a):
-    """Pairs with ``d_ij <= a (r_i + r_j)``, with the shared cell-list search.
-
-    The search kernel works on a 3D periodic box. A 2D pack is embedded in a slab and
-    a wall axis is padded by more than the search reach, so no pair is found through a
-    periodic image the pack does not have.
-    """
+    """Pairs with ``d_ij <= a (r_i + r_j)`` by the shared cell-list search (2D/3D, walls)."""
     from ..neighbors import pairs_within
 
     pos, box, dim, periodic = _geometry(packing)
     rad = np.asarray(packing.radii, dtype=np.float64)
-    if dim == 3 and periodic.all():
-        return pairs_within(pos, rad, box, a=a, b=0.0)
-    reach = 2.0 * a * float(rad.max())
-    p3 = np.zeros((pos.shape[0], 3))
-    b3 = np.empty(3)
-    p3[:, :dim] = pos
-    # A wall axis padded by 2 reach: a pair seen through the fake image is > reach apart.
-    b3[:dim] = np.where(periodic, box, box + 2.0 * reach * (1.0 + 1e-9))
-    b3[dim:] = 4.0 * reach
-    return pairs_within(p3, rad, b3, a=a, b=0.0)
+    return pairs_within(pos, rad, box, a=a, b=0.0, periodic=tuple(bool(p) for p in periodic))
 
 
 class BondNetwork:
