@@ -29,6 +29,7 @@ _LAZY = {
     "free_surface_height": "deposits",
     "PoreSizes": "pores",
     "nearest_surface_distance": "pores",
+    "ThreePointParameters": "threepoint",
     "theory": None,
 }
 
