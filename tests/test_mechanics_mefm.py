@@ -6,7 +6,7 @@ import pytest
 import polypack as pp
 from polypack.errors import InvalidInputError
 from polypack.mechanics import Phase, mori_tanaka
-from polypack.mechanics.mefm import (
+from polypack.mechanics.interaction import (
     _J,
     _KDEV,
     _interaction_tensor,

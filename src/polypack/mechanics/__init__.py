@@ -19,7 +19,7 @@ _LAZY = {
     "hashin_shtrikman": "effective",
     "self_consistent": "effective",
     "three_point_bounds": "effective",
-    "mefm": "mefm",
+    "mefm": "interaction",
     # bonded DEM and the oscillatory shear test (t15)
     "oscillatory_shear": "dem",
     "relax": "dem",

@@ -1,0 +1,186 @@
+"""``polypack moduli``: effective elastic moduli of a pack or a run's ensemble.
+
+Classical estimates (Mori-Tanaka, self-consistent, Hashin-Shtrikman), the three-point
+bulk bounds with ζ2 measured on the packs, and the RDF-dependent pair estimate (MEFM)
+from the packs' partial RDFs; realizations of a run folder give means and standard
+errors. Also the Figs. 8-9-style plot of 000_2cedc098acbd866b.txt (E*/E0 and μ*/μ0
+against the volume fraction, CRM vs SCRM packs beside MT, HS and the bounds).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import List, Optional
+
+import numpy as np
+import typer
+
+ESTIMATES = ("mori_tanaka", "self_consistent", "hs_lower", "hs_upper", "three_point_lower", "three_point_upper", "mefm")
+
+
+def parse_phase(text: str, what: str):
+    """``"E,nu"`` -> Phase (E in the user's unit)."""
+    from ..errors import InvalidInputError
+    from ..mechanics import Phase
+
+    try:
+        e, nu = (float(t) for t in str(text).split(","))
+    except ValueError:
+        raise InvalidInputError(f"{what}={text!r} must be 'E,nu' (Young's modulus, Poisson's ratio), e.g. 3.01e9,0.394") from None
+    return Phase.from_young(e, nu)
+
+
+def moduli_of_pack(pk, matrix, inclusions, three_point=True):
+    """Every estimate for one pack: dict name -> Phase, plus ``zeta2``/``eta2`` if computed.
+
+    ``inclusions`` has one Phase per species of the pack, or a single Phase for all.
+    """
+    from ..analysis import ThreePointParameters
+    from ..errors import InvalidInputError
+    from ..mechanics import hashin_shtrikman, mefm, mori_tanaka, self_consistent, three_point_bounds
+
+    ns = pk.n_species
+    incs = list(inclusions)
+    if len(incs) == 1 and ns > 1:
+        incs = incs * ns
+    if len(incs) != ns:
+        raise InvalidInputError(f"the pack has {ns} species but {len(incs)} inclusion phases were given; give 1 or {ns}")
+    vol = float(np.prod(pk.box))
+    fr = np.array([np.sum(4 / 3 * np.pi * pk.radii[pk.species == s] ** 3) / vol for s in range(ns)])
+    out = {
+        "volume_fraction": float(fr.sum()),
+        "mori_tanaka": mori_tanaka(matrix, incs, fr),
+        "self_consistent": self_consistent(matrix, incs, fr),
+    }
+    lo, up = hashin_shtrikman([matrix, *incs], [1 - fr.sum(), *fr])
+    out["hs_lower"], out["hs_upper"] = lo, up
+    one_phase = all(p == incs[0] for p in incs)
+    if three_point and one_phase:
+        tp = ThreePointParameters().compute(pk)
+        out["zeta2"], out["eta2"] = tp.zeta2, tp.eta2
+        out["three_point_lower"], out["three_point_upper"] = three_point_bounds(
+            matrix, incs[0], fr.sum(), min(max(tp.zeta2, 0.0), 1.0), min(max(tp.eta2, 0.0), 1.0)
+        )
+    out["mefm"] = mefm(matrix, incs, pk)
+    return out
+
+
+def summarize(rows, matrix):
+    """Mean and standard error over realizations of every estimate, as plain data."""
+    keys = [k for k in ESTIMATES if all(k in r for r in rows)]
+    res = {"n_realizations": len(rows), "volume_fraction": float(np.mean([r["volume_fraction"] for r in rows]))}
+    for extra in ("zeta2", "eta2"):
+        if all(extra in r for r in rows):
+            v = np.array([r[extra] for r in rows])
+            res[extra] = {"mean": float(v.mean()), "stderr": float(v.std(ddof=1) / np.sqrt(len(v))) if len(v) > 1 else None}
+    for k in keys:
+        entry = {}
+        for q, ref in (("bulk", matrix.bulk), ("shear", matrix.shear), ("young", matrix.young), ("poisson", None)):
+            v = np.array([getattr(r[k], q) for r in rows], dtype=np.float64)
+            mean = float(v.mean())
+            se = float(v.std(ddof=1) / np.sqrt(len(v))) if len(v) > 1 else None
+            entry[q] = {"mean": mean, "stderr": se}
+            if ref:
+                entry[q + "_ratio"] = {"mean": mean / ref, "stderr": None if se is None else se / ref}
+        res[k] = entry
+    return res
+
+
+def load_packs(path):
+    """A packing file, or every realization ``realizations/r*.gsd`` of a run folder."""
+    from .. import io
+    from ..errors import InvalidInputError
+
+    p = Path(path)
+    if p.is_dir():
+        files = sorted((p / "realizations").glob("r*.gsd")) if (p / "realizations").is_dir() else sorted(p.glob("*.gsd"))
+        if not files:
+            raise InvalidInputError(f"{p} holds no realizations/r*.gsd (a polypack run folder) nor *.gsd files")
+        return [io.read(f) for f in files], [str(f) for f in files]
+    return [io.read(p)], [str(p)]
+
+
+def plot_figs_8_9(curves, matrix, inclusion, fractions=None, axes=None, title=None):
+    """E*/E0 and μ*/μ0 against c in the style of Figs. 8-9 of 000_2cedc098acbd866b.txt.
+
+    ``curves`` maps a protocol label (e.g. "CRM", "SCRM") to a list of summaries
+    (:func:`summarize`) at increasing volume fraction; MEFM points carry ensemble error
+    bars, MT, HS bounds and the three-point bounds are drawn beside them.
+    """
+    import matplotlib.pyplot as plt
+
+    from ..mechanics import hashin_shtrikman, mori_tanaka, three_point_bounds
+
+    if axes is None:
+        _, axes = plt.subplots(1, 2, figsize=(10, 4.2))
+    c = np.linspace(0.0, 0.65 if fractions is None else max(fractions), 60)
+    mt = [mori_tanaka(matrix, inclusion, x) for x in c]
+    hs = [hashin_shtrikman([matrix, inclusion], [1 - x, x]) for x in c]
+    for ax, q, ref, label in ((axes[0], "young", matrix.young, "E*/E0"), (axes[1], "shear", matrix.shear, "μ*/μ0")):
+        ax.plot(c, [getattr(p, q) / ref for p in mt], "k-", label="Mori-Tanaka (= HS lower)")
+        ax.plot(c, [getattr(h[1], q) / ref for h in hs], "k:", label="Hashin-Shtrikman upper")
+        markers = iter("osd^v")
+        for name, rows in curves.items():
+            xs = np.array([r["volume_fraction"] for r in rows])
+            ys = np.array([r["mefm"][q + "_ratio"]["mean"] for r in rows])
+            es = np.array([r["mefm"][q + "_ratio"]["stderr"] or 0.0 for r in rows])
+            ax.errorbar(xs, ys, yerr=es, fmt=next(markers) + "-", capsize=3, label=f"MEFM, RDF of {name} packs")
+            if all("three_point_lower" in r for r in rows):
+                lo = [r["three_point_lower"][q + "_ratio"]["mean"] for r in rows]
+                up = [r["three_point_upper"][q + "_ratio"]["mean"] for r in rows]
+                lab = "three-point bounds (ζ2 of packs)" if q == "young" else "HS bounds (three-point shear bounds not available)"
+                ax.fill_between(xs, lo, up, alpha=0.15, label=f"{lab}, {name}")
+            if "well_stirred" in rows[0]:
+                ax.plot(xs, [r["well_stirred"][q + "_ratio"]["mean"] for r in rows], "--", label="MEFM, well-stirred g")
+        ax.set_xlabel("inclusion volume fraction c (–)")
+        ax.set_ylabel(f"{label} (–)")
+        ax.legend(fontsize=7)
+    if title:
+        axes[0].figure.suptitle(title)
+    return axes
+
+
+def register(app: typer.Typer) -> None:
+    @app.command()
+    def moduli(
+        path: Path = typer.Argument(..., help="Packing file, or a run folder (its realizations give error bars)."),
+        matrix: str = typer.Option(..., "--matrix", help="Matrix 'E,nu' (e.g. 3.01e9,0.394)."),
+        inclusions: List[str] = typer.Option(..., "--inclusions", help="Inclusion 'E,nu'; once for all species or once per species."),
+        three_point: bool = typer.Option(True, help="Measure zeta2/eta2 and the three-point bounds (slower)."),
+        json_out: Optional[Path] = typer.Option(None, "--json", help="Write the summary as JSON here."),
+    ):
+        """Effective moduli of a pack: MT, SC, HS, three-point bounds (zeta2 of the pack) and MEFM (its RDFs)."""
+        from .._util import atomic_open
+
+        m = parse_phase(matrix, "--matrix")
+        incs = [parse_phase(t, "--inclusions") for t in inclusions]
+        packs, names = load_packs(path)
+        rows = []
+        for pk in packs:
+            rows.append(moduli_of_pack(pk, m, incs, three_point=three_point))
+        res = {"path": str(path), "files": names, "matrix": m.to_dict(), "inclusions": [p.to_dict() for p in incs],
+               **summarize(rows, m)}
+        typer.echo(f"{path}: {len(packs)} pack(s), inclusion volume fraction {res['volume_fraction']:.4f}")
+        if "zeta2" in res:
+            z, e = res["zeta2"], res["eta2"]
+            err = "" if z["stderr"] is None else f" ± {z['stderr']:.4f}"
+            typer.echo(f"  zeta2 = {z['mean']:.4f}{err}, eta2 = {e['mean']:.4f}")
+        typer.echo(f"  {'estimate':20s} {'E*/E0':>16s} {'G*/G0':>16s} {'K*/K0':>10s} {'nu*':>8s}")
+        for k in ESTIMATES:
+            if k not in res:
+                continue
+            r = res[k]
+
+            def fmt(q):
+                s = r[q + "_ratio"]
+                return f"{s['mean']:.4f}" + ("" if s["stderr"] is None else f" ± {s['stderr']:.4f}")
+
+            typer.echo(f"  {k:20s} {fmt('young'):>16s} {fmt('shear'):>16s} {r['bulk_ratio']['mean']:10.4f} "
+                       f"{r['poisson']['mean']:8.4f}")
+        if "three_point_lower" in res:
+            typer.echo("  note: three-point bounds bound K only; their shear entries are the HS bounds")
+        if json_out is not None:
+            with atomic_open(json_out, "w") as fh:
+                json.dump(res, fh, indent=1)
+            typer.echo(f"  wrote {json_out}")
