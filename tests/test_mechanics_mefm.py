@@ -127,3 +127,24 @@ def test_input_errors():
         mefm(EPOXY, [GLASS, GLASS], pk)
     with pytest.raises(InvalidInputError, match="finite matrix"):
         mefm(Phase.from_young(1.0, 0.5), GLASS, "well_stirred", fractions=[0.3], radii=[1.0])
+
+
+def test_mefm_rejects_2d_packs():
+    pk = pp.Packing(np.random.default_rng(0).random((20, 2)) * 20, np.full(20, 0.5), [20.0, 20.0])
+    with pytest.raises(InvalidInputError, match="3D periodic"):
+        mefm(EPOXY, GLASS, pk)
+
+
+def test_voids_soften_below_mori_tanaka_and_rigid_c2_coefficient():
+    # for voids MT is the HS upper bound; pair interactions lower the estimate
+    m = Phase.from_young(1.0, 0.3)
+    for c in (0.1, 0.3):
+        assert mefm(m, Phase(0.0, 0.0), "well_stirred", fractions=[c], radii=[1.0]).young < mori_tanaka(
+            m, Phase(0.0, 0.0), c).young
+    # rigid spheres, nearly incompressible matrix, g = 1: G/G0 = 1 + 2.5 c + k2 c^2; MT has k2 = 2.5,
+    # the exact pair solution (Chen & Acrivos 1978) 5.0; the uniform-strain pair model lies between
+    m = Phase.from_young(1.0, 0.49999)
+    c = 0.01
+    k2 = (mefm(m, Phase.from_young(1e6, 0.3), "well_stirred", fractions=[c], radii=[1.0]).shear / m.shear
+          - 1 - 2.5 * c) / c**2
+    assert 3.0 < k2 < 5.0  # measured 3.40

@@ -199,6 +199,11 @@ def _resolve_statistics(inclusions, rdf, fractions, radii, r_max, dr):
     n_inc = len(inclusions)
     packing_like = hasattr(rdf, "positions") and hasattr(rdf, "radii") and hasattr(rdf, "box")
     if packing_like:
+        if getattr(rdf, "dim", 3) != 3 or not all(getattr(rdf, "periodic", (True,) * 3)):
+            raise InvalidInputError(
+                f"mefm measures RDFs of 3D periodic packs only; got dim={getattr(rdf, 'dim', 3)}, "
+                f"periodic={getattr(rdf, 'periodic', None)}"
+            )
         sp = np.asarray(rdf.species, dtype=np.int64)
         k = int(sp.max()) + 1
         if k != n_inc:
