@@ -176,18 +176,42 @@ def polypack_speed(net, steps, density, dt, amplitude, damping):
     p = dem._params(K, dt, omega, amplitude, 1.0, damping, 0.0, float(np.prod(n.box)), float(n.box[2]), 0, 2,
                     K.MODE_LEES_EDWARDS, 40, s.reach)
     samples = np.zeros((steps // 40 + 2, K.N_S))
+    nl = (np.zeros(0), np.zeros((1, 1)))
     K.run(2, s.pos, s.vel, s.omg, s.radii, s.mass, s.inertia, s.kind, s.pos0, s.h0, *s.contacts.args(), p, s.st,
-          samples, 0, s.xbuild)  # compile
+          samples, 0, s.xbuild, *nl)  # compile
     t0, c0 = time.perf_counter(), time.process_time()
     done = 0
     ns = 0
     while done < steps:
         status, k, ns = K.run(steps - done, s.pos, s.vel, s.omg, s.radii, s.mass, s.inertia, s.kind, s.pos0, s.h0,
-                              *s.contacts.args(), p, s.st, samples, ns, s.xbuild)
+                              *s.contacts.args(), p, s.st, samples, ns, s.xbuild, *nl)
         done += k
         if status == K.STATUS_REBUILD:
             s.rebuild(float(K.strain_at(int(s.st[K.ST_STEP]), p)), 2, 0, "lees-edwards")
     return time.perf_counter() - t0, time.process_time() - c0
+
+
+def convergence(net, amplitude, damping, density, steps=(500, 1000, 2000, 4000), cycles=3):
+    """G' (Lees-Edwards and plates, direction (2, 0)) against the exact static C55 as S grows."""
+    t0 = time.perf_counter()
+    c55 = dem.static_shear_modulus(net, 2, 0)
+    rows = []
+    print(f"convergence on N = {net.n} ({net.n_bonds} bonds, box {net.packing.box[0]:.2f} d): static C55 = {c55:.5g} "
+          f"({time.perf_counter() - t0:.1f} s)")
+    for s in steps:
+        row = {"steps_per_cycle": s}
+        for boundary in ("lees-edwards", "plates"):
+            t0 = time.perf_counter()
+            r = dem.oscillatory_shear(net, directions=[(2, 0)], cycles=cycles, ramp_cycles=1, steps_per_cycle=s,
+                                      boundary=boundary,
+                                      amplitude=amplitude, damping=damping, density=density)
+            row[boundary] = {"G": r.storage_modulus, "G_loss": r.loss_modulus, "rel_error": r.storage_modulus / c55 - 1,
+                             "seconds": time.perf_counter() - t0, "inertial_error": r.inertial_error}
+        rows.append(row)
+        le, pl = row["lees-edwards"], row["plates"]
+        print(f"  S = {s:5d}: LE G' {le['G']:.5g} ({100 * le['rel_error']:+.2f} %, G''/G' {le['G_loss'] / le['G']:.2e})"
+              f"  plates G' {pl['G']:.5g} ({100 * pl['rel_error']:+.2f} %)  [{le['seconds']:.0f} s, {pl['seconds']:.0f} s]")
+    return {"static_C55": c55, "rows": rows}
 
 
 def main(argv=None):
@@ -198,6 +222,10 @@ def main(argv=None):
     ap.add_argument("--steps-per-cycle", type=int, default=4000)
     ap.add_argument("--cycles", type=int, default=3)
     ap.add_argument("--no-agreement", action="store_true")
+    ap.add_argument("--convergence", action="store_true",
+                    help="also: G' against the static C55 as the steps per cycle grow, and plates vs Lees-Edwards, "
+                         "on the speed network")
+    ap.add_argument("--no-speed", action="store_true", help="skip the speed comparison")
     ap.add_argument("--json", default=None)
     args = ap.parse_args(argv)
     kn, ks, damping, amplitude, density = 100.0, 10.0, 0.9, 1e-3, 1.0
@@ -206,6 +234,13 @@ def main(argv=None):
     # ---- speed
     net = make_network(args.n)
     dt = 0.5 * dem.critical_time_step(net, density)
+    if args.convergence:
+        out["convergence"] = convergence(net, amplitude, damping, density)
+    if args.no_speed:
+        if args.json:
+            with open(args.json, "w") as f:
+                json.dump(out, f, indent=2)
+        return out
     out.update(n=args.n, bonds=int(net.n_bonds), bonds_per_particle=net.n_bonds / args.n, steps=args.steps, dt=dt)
     t_pp, c_pp = polypack_speed(net, args.steps, density, dt, amplitude, damping)
     t_lmp, c_lmp = lammps_speed(net, density, dt, args.steps, amplitude, damping, kn, ks)

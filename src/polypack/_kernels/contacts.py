@@ -129,7 +129,7 @@ def contact_law(bonded, kn, ks, rest, fnb, fsb, mu, d, overlap, fs):
 
 @njit(cache=True)
 def contact_forces(pos, vel, omg, radii, h, dh, dt, ci, cj, cshift, ckn, cks, crest, cfnb, cfsb,
-                   cstate, cfs, cfn, mu, force, torque, acc):
+                   cstate, cfs, cfn, mu, force, torque, acc, full=True):
     """Update every contact over one step and add its forces and torques.
 
     Parameters
@@ -162,6 +162,9 @@ def contact_forces(pos, vel, omg, radii, h, dh, dt, ci, cj, cshift, ckn, cks, cr
         Accumulated in place.
     acc : (N_ACC,) float64
         Accumulators (see module docstring), added to in place.
+    full : bool
+        Also accumulate the virial, the stored energy and the force statistics (else only
+        forces, torques, the slip loss, breakages and the shift sums of imaged contacts).
     """
     m = ci.shape[0]
     ftrial = np.empty(3)
@@ -282,15 +285,6 @@ def contact_forces(pos, vel, omg, radii, h, dh, dt, ci, cj, cshift, ckn, cks, cr
         torque[j, 0] -= lj * tx
         torque[j, 1] -= lj * ty
         torque[j, 2] -= lj * tz
-        acc[A_VIRIAL + 0] += Fx * bx
-        acc[A_VIRIAL + 1] += Fx * by
-        acc[A_VIRIAL + 2] += Fx * bz
-        acc[A_VIRIAL + 3] += Fy * bx
-        acc[A_VIRIAL + 4] += Fy * by
-        acc[A_VIRIAL + 5] += Fy * bz
-        acc[A_VIRIAL + 6] += Fz * bx
-        acc[A_VIRIAL + 7] += Fz * by
-        acc[A_VIRIAL + 8] += Fz * bz
         if imaged:
             acc[A_SHIFTSUM + 0] += Fx * s0
             acc[A_SHIFTSUM + 1] += Fx * s1
@@ -301,6 +295,17 @@ def contact_forces(pos, vel, omg, radii, h, dh, dt, ci, cj, cshift, ckn, cks, cr
             acc[A_SHIFTSUM + 6] += Fz * s0
             acc[A_SHIFTSUM + 7] += Fz * s1
             acc[A_SHIFTSUM + 8] += Fz * s2
+        if not full:
+            continue
+        acc[A_VIRIAL + 0] += Fx * bx
+        acc[A_VIRIAL + 1] += Fx * by
+        acc[A_VIRIAL + 2] += Fx * bz
+        acc[A_VIRIAL + 3] += Fy * bx
+        acc[A_VIRIAL + 4] += Fy * by
+        acc[A_VIRIAL + 5] += Fy * bz
+        acc[A_VIRIAL + 6] += Fz * bx
+        acc[A_VIRIAL + 7] += Fz * by
+        acc[A_VIRIAL + 8] += Fz * bz
         e = 0.0
         if kn > 0.0:
             e += 0.5 * fn * fn / kn

@@ -120,8 +120,46 @@ def strain_at(step, p):
 
 
 @njit(cache=True)
+def layer_stress(pos, h, ci, cj, cshift, cfn, cfs, a, g, edges, area, out):
+    """Shear stress ``σ_ag`` in slabs ``edges[k] <= x_g < edges[k+1]`` (planar measure).
+
+    Each contact counts with the fraction ``w`` of its branch segment (from ``x_i`` along
+    ``b``) that lies in the slab: ``σ_ag = -(1 / (A Δz)) Σ w f_a b_g``, the mean over the
+    slab's heights of the force per area across planes normal to ``g`` (contacts to
+    plate spheres count with the part of their branch inside the slab).
+    """
+    nl = edges.shape[0] - 1
+    for k in range(nl):
+        out[k] = 0.0
+    m = ci.shape[0]
+    for c in range(m):
+        fn = cfn[c]
+        if fn == 0.0 and cfs[c, 0] == 0.0 and cfs[c, 1] == 0.0 and cfs[c, 2] == 0.0:
+            continue
+        i = ci[c]
+        j = cj[c]
+        b0 = pos[j, 0] - pos[i, 0] + h[0, 0] * cshift[c, 0] + h[0, 1] * cshift[c, 1] + h[0, 2] * cshift[c, 2]
+        b1 = pos[j, 1] - pos[i, 1] + h[1, 0] * cshift[c, 0] + h[1, 1] * cshift[c, 1] + h[1, 2] * cshift[c, 2]
+        b2 = pos[j, 2] - pos[i, 2] + h[2, 0] * cshift[c, 0] + h[2, 1] * cshift[c, 1] + h[2, 2] * cshift[c, 2]
+        d = np.sqrt(b0 * b0 + b1 * b1 + b2 * b2)
+        bg = b0 if g == 0 else (b1 if g == 1 else b2)
+        ba = b0 if a == 0 else (b1 if a == 1 else b2)
+        fa = fn * ba / d + cfs[c, a]
+        z0 = pos[i, g]
+        lo = min(z0, z0 + bg)
+        hi = max(z0, z0 + bg)
+        for k in range(nl):
+            o = min(hi, edges[k + 1]) - max(lo, edges[k])
+            if o > 0.0:
+                # w * b_g = overlap length with the sign of b_g
+                out[k] -= fa * (o if bg >= 0.0 else -o)
+    for k in range(nl):
+        out[k] /= area * (edges[k + 1] - edges[k])
+
+
+@njit(cache=True)
 def run(n_steps, pos, vel, omg, radii, mass, inertia, kind, pos0, h0, ci, cj, cshift, ckn, cks,
-        crest, cfnb, cfsb, cstate, cfs, cfn, p, st, samples, n_sample, xbuild):
+        crest, cfnb, cfsb, cstate, cfs, cfn, p, st, samples, n_sample, xbuild, layer_edges, layer_samples):
     """Advance ``n_steps`` steps (or until a neighbour-list rebuild is due).
 
     Parameters
@@ -148,6 +186,10 @@ def run(n_steps, pos, vel, omg, radii, mass, inertia, kind, pos0, h0, ci, cj, cs
         Rows already filled.
     xbuild : (N, 3) float64
         Positions when the neighbour list was built (rebuild test).
+    layer_edges : (L + 1,) float64
+        Slab edges along the gradient axis for :func:`layer_stress` (fewer than 2: none).
+    layer_samples : (K, L) float64
+        The slab shear stresses of every sample row.
 
     Returns
     -------
@@ -228,8 +270,11 @@ def run(n_steps, pos, vel, omg, radii, mass, inertia, kind, pos0, h0, ci, cj, cs
                 torque[i, q] = 0.0
         for q in range(N_ACC):
             acc[q] = 0.0
+        sampling = every > 0 and (step % every) == 0 and n_sample < samples.shape[0]
         contact_forces(pos, vel, omg, radii, h, dh, dt, ci, cj, cshift, ckn, cks, crest, cfnb, cfsb,
-                       cstate, cfs, cfn, mu, force, torque, acc)
+                       cstate, cfs, cfn, mu, force, torque, acc, sampling)
+        if sampling and layer_edges.shape[0] > 1:
+            layer_stress(pos, h, ci, cj, cshift, cfn, cfs, a, g, layer_edges, vol / lg, layer_samples[n_sample])
         st[ST_BREAK_TENSION] += acc[A_BREAK_TENSION]
         st[ST_BREAK_SHEAR] += acc[A_BREAK_SHEAR]
         st[ST_SLIP] += acc[A_SLIP]
@@ -257,7 +302,6 @@ def run(n_steps, pos, vel, omg, radii, mass, inertia, kind, pos0, h0, ci, cj, cs
             st[ST_PREV_PLATE] = plate_f
             st[ST_PREV_VALID] = 1.0
         # integrate the free spheres
-        sampling = every > 0 and (step % every) == 0 and n_sample < samples.shape[0]
         if sampling:
             for q in range(6):
                 kt[q] = 0.0
@@ -348,6 +392,7 @@ def run(n_steps, pos, vel, omg, radii, mass, inertia, kind, pos0, h0, ci, cj, cs
             samples[row, S_BREAKS] = st[ST_BREAK_TENSION] + st[ST_BREAK_SHEAR]
             samples[row, S_UNBALANCED] = unbal / nfree if nfree > 0 else 0.0
             samples[row, S_CONTACT_FORCE] = acc[A_FORCE_SUM] / acc[A_ACTIVE] if acc[A_ACTIVE] > 0 else 0.0
+
             n_sample += 1
     return STATUS_DONE, n_steps, n_sample
 
@@ -372,4 +417,4 @@ def warmup():
         np.zeros(n, np.int64), pos.copy(), np.eye(3) * 10.0, np.zeros(1, np.int64), np.ones(1, np.int64),
         np.zeros((1, 3)), one * 100.0, one * 10.0, one * 2.0, one * np.inf, one * np.inf,
         np.ones(1, np.int64), np.zeros((1, 3)), np.zeros(1), p, np.zeros(N_ST), np.zeros((4, N_S)), 0,
-        pos.copy())
+        pos.copy(), np.array([0.0, 5.0, 10.0]), np.zeros((4, 2)))

@@ -80,6 +80,8 @@ DEFAULTS = {
 }
 
 BOUNDARIES = ("lees-edwards", "plates")
+_NO_LAYERS = np.zeros(0)
+_NO_LAYER_SAMPLES = np.zeros((1, 1))
 
 
 class ShearInterrupted(KeyboardInterrupt):
@@ -505,7 +507,7 @@ def relax(network, check_every: int = 100, tolerance: float = 1e-3, patience: in
             nstep = min(check_every, max_steps - done)
             _, steps, ns = K.run(nstep, sys_.pos, sys_.vel, sys_.omg, sys_.radii, sys_.mass, sys_.inertia,
                                  sys_.kind, sys_.pos0, sys_.h0, *sys_.contacts.args(), p, sys_.st, samples, ns,
-                                 sys_.xbuild)
+                                 sys_.xbuild, _NO_LAYERS, _NO_LAYER_SAMPLES)
             done += steps
             bar.update(steps)
             fu = samples[ns - 1, K.S_UNBALANCED]
@@ -697,7 +699,8 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
                       steps_per_cycle: int = 4000, samples_per_cycle: int = 100, safety: float = 0.5,
                       mass_scale: float | None = None, damping: float = DEFAULTS["damping"],
                       friction: float = DEFAULTS["friction"], density: float = DEFAULTS["density"],
-                      relax_first: bool | None = None, layers: int = 3, progress=None) -> ShearResult:
+                      relax_first: bool | None = None, layers: int = 3, measurement_layers: int = 5,
+                      progress=None) -> ShearResult:
     """Strain-controlled oscillatory shear of a bonded network by DEM (§2.4 of 003_873b69fc71c74cf6.txt).
 
     The strain ``γ(t) = A_k sin(2π f t)`` has an amplitude ramped linearly over the first
@@ -749,6 +752,12 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
         exceeds the force of a bond stretched by 1e-6 of its length (zero-gap references).
     layers : int
         Plate thickness in mean diameters (``"plates"``; seed 3).
+    measurement_layers : int
+        Slabs of equal height across the sample in which the stress is measured
+        (``"plates"``; the seed's measurement spheres "in different heights"); each
+        direction row gets ``measurement_layers`` (G′ per slab) and
+        ``storage_modulus_sample`` (G′ of the slab mean); ``storage_modulus`` is from the
+        plate force.
     progress : bool, optional
         Progress bar (default: when stderr is a terminal).
 
@@ -795,6 +804,7 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
         raise InvalidInputError(f"friction={friction!r}: must be >= 0")
     density = _positive("density", density)
     layers = _positive("layers", layers, integer=True)
+    measurement_layers = _positive("measurement_layers", measurement_layers, integer=True)
     # strength check: the bond loads of an affine shear of the full amplitude along each
     # direction; more than half the bonds beyond their strength means the amplitude is
     # beyond the bond strength (single bonds may break: breakage is part of the model)
@@ -874,6 +884,12 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
             p = _params(K, dt, omega, amplitude, float(ramp), damping, friction, volume, float(net.box[g]), a, g,
                         mode, every, sys_.reach)
             samples = np.zeros((cycles * samples_per_cycle + 1, K.N_S))
+            if boundary == "plates":
+                # measurement slabs: `measurement_layers` equal slabs across the sample [0, L)
+                edges_all = np.linspace(0.0, float(net.box[g]), measurement_layers + 1)
+            else:
+                edges_all = _NO_LAYERS
+            layer_samples = np.zeros((samples.shape[0], max(1, edges_all.shape[0] - 1)))
             ns = 0
             chunk = max(every, (2_000_000 // max(1, n_free)) // every * every)
             chunk = min(chunk, steps_per_cycle)
@@ -884,7 +900,7 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
                     nstep = min(chunk, total - done)
                     status, steps, ns = K.run(nstep, sys_.pos, sys_.vel, sys_.omg, sys_.radii, sys_.mass,
                                               sys_.inertia, sys_.kind, sys_.pos0, sys_.h0, *sys_.contacts.args(),
-                                              p, sys_.st, samples, ns, sys_.xbuild)
+                                              p, sys_.st, samples, ns, sys_.xbuild, edges_all, layer_samples)
                     done += steps
                     steps_run += steps
                     n_part += steps * n_free
@@ -899,7 +915,9 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
             except KeyboardInterrupt:
                 interrupted = True
             row, ser = _direction_result(K, samples[:ns], g, a, omega, amplitude, ramp, discard_cycles,
-                                         samples_per_cycle, boundary, sys_, frequency, complete=not interrupted)
+                                         samples_per_cycle, boundary, sys_, frequency, complete=not interrupted,
+                                         layers=layer_samples[:ns] if boundary == "plates" else None,
+                                         edges=edges_all)
             if row is not None:
                 per_dir.append(row)
                 series.append(ser)
@@ -937,7 +955,8 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
     return res
 
 
-def _direction_result(K, s, g, a, omega, amplitude, ramp, discard, spc, boundary, sys_, frequency, complete):
+def _direction_result(K, s, g, a, omega, amplitude, ramp, discard, spc, boundary, sys_, frequency, complete,
+                      layers=None, edges=None):
     """Fit and energy balance of one direction from its sample rows."""
     if s.shape[0] < 2:
         return None, None
@@ -980,10 +999,20 @@ def _direction_result(K, s, g, a, omega, amplitude, ramp, discard, spc, boundary
         "breakages_tension": int(sys_.st[K.ST_BREAK_TENSION]), "breakages_shear": int(sys_.st[K.ST_BREAK_SHEAR]),
         "energy": energy, "complete": bool(complete), "steps": int(sys_.st[K.ST_STEP]),
     }
+    if layers is not None:
+        # plates: the sample's own stress is the area-weighted mean of its measurement slabs
+        # (contacts to the plates count with the part of their branch inside the sample)
+        widths = np.diff(edges)
+        lw = layers @ widths / widths.sum()
+        row["measurement_layers"] = [
+            {"bottom": float(edges[k]), "top": float(edges[k + 1]),
+             "storage_modulus": _fit(t[sel], gamma[sel], layers[sel, k], omega, amp[sel])[0]}
+            for k in range(layers.shape[1])]
+        row["storage_modulus_sample"] = _fit(t[sel], gamma[sel], lw[sel], omega, amp[sel])[0]
     ser = {"time": t, "strain": gamma, "stress": stress,
-           # whole-cell Love-Weber stress: the measured stress for Lees-Edwards; for plates the
-           # cell sum would count every bond to a plate twice, so it is left out
-           "stress_love_weber": lw if boundary != "plates" else np.full_like(lw, np.nan),
+           # Lees-Edwards: the whole-cell Love-Weber stress (the measured one); plates: the
+           # mean over the measurement slabs of the sample
+           "stress_love_weber": lw,
            "stored_energy": s[:, K.S_STORED], "kinetic_energy": s[:, K.S_KINETIC], "work": s[:, K.S_WORK],
            "damping": s[:, K.S_DAMP], "slip": s[:, K.S_SLIP], "breakages": s[:, K.S_BREAKS]}
     return row, ser
