@@ -287,3 +287,20 @@ def test_cli_shear_bad_boundary(tmp_path, capsys):
     assert info.value.code != 0
     err = capsys.readouterr().err
     assert "boundary='walls'" in err and len(err.strip().splitlines()) == 1
+
+
+def test_trajectory_gsd(random_net, tmp_path):
+    import gsd.hoomd
+
+    path = tmp_path / "traj.gsd"
+    r = dem.oscillatory_shear(random_net, directions=[(2, 0)], cycles=2, steps_per_cycle=200, samples_per_cycle=20,
+                              density=1.0, trajectory=path, trajectory_every=50)
+    with gsd.hoomd.open(str(path)) as t:
+        assert len(t) == r.parameters["trajectory_frames"] == 1 + 401 // 50
+        f = t[4]
+        assert f.particles.N == random_net.packing.n
+        assert f.bonds.N >= random_net.n_bonds
+        assert np.all(np.abs(f.particles.position) <= 0.5 * random_net.packing.box + 1e-9)
+        # xz tilt (shear along x, normal z) equals the strain logged with the frame
+        assert f.configuration.box[4] == pytest.approx(float(f.log["polypack/strain"][0]), rel=1e-6)
+        assert np.any(f.log["bonds/normal_force"] != 0)

@@ -47,6 +47,9 @@ def register(app: typer.Typer) -> None:
         density: float = typer.Option(3690.0, "--density", help="Particle density before mass scaling."),
         json_out: Optional[Path] = typer.Option(None, "--json", help="Write the result (with time series) as JSON."),
         plot: Optional[Path] = typer.Option(None, "--plot", help="Write the stress-strain plot (PNG) here."),
+        trajectory: Optional[Path] = typer.Option(
+            None, "--trajectory", help="Write GSD frames with contact forces (20 per cycle) here."
+        ),
         progress: Optional[bool] = typer.Option(None, "--progress/--no-progress", help="Progress bar."),
     ):
         """Storage and loss moduli G', G'' of the bonded pack by oscillatory shear (DEM)."""
@@ -63,7 +66,7 @@ def register(app: typer.Typer) -> None:
             res = oscillatory_shear(net, frequency=frequency, amplitude=amplitude, cycles=cycles,
                                     directions=_directions(direction), boundary=boundary,
                                     steps_per_cycle=steps_per_cycle, damping=damping, density=density,
-                                    progress=progress)
+                                    trajectory=trajectory, progress=progress)
         except ShearInterrupted as exc:
             res = exc.result
             interrupted = True

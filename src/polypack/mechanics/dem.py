@@ -662,6 +662,75 @@ class ShearResult:
         return ax
 
 
+class _Trajectory:
+    """GSD frames of the shear run: spheres, bonds and bond forces (HOOMD schema).
+
+    ``configuration/box`` carries the Lees-Edwards tilt when HOOMD can express it
+    (``xy``, ``xz``, ``yz``: flow axis before the gradient axis); positions are folded into
+    the cell and centred.  Per frame ``bonds/group`` (the contacts), ``log/bonds/normal_force``
+    (positive in compression), ``log/bonds/shear_force`` (on ``j``), ``log/bonds/state``
+    (0 unbonded contact, 1 bond, 2 broken bond) and ``log/polypack/{time, strain,
+    direction}``.
+    """
+
+    def __init__(self, path):
+        import gsd.hoomd
+
+        self._gsd = gsd.hoomd
+        self.path = path
+        self._ctx = None
+        self._fh = None
+        self.frames = 0
+
+    def __enter__(self):
+        from .._util import atomic_path
+
+        self._ctx = atomic_path(self.path)
+        tmp = self._ctx.__enter__()
+        self._fh = self._gsd.open(str(tmp), "w")
+        return self
+
+    def __exit__(self, et, ev, tb):
+        self._fh.close()
+        return self._ctx.__exit__(et, ev, tb)
+
+    def write(self, sys_, gamma, time_, g, a, boundary):
+        box = sys_.box
+        cell = sys_.h0.copy()
+        if boundary == "lees-edwards":
+            cell[a, g] += gamma * box[g]
+        s = sys_.pos @ np.linalg.inv(cell).T
+        periodic = np.array(sys_.periodic_axes)
+        s[:, periodic] -= np.floor(s[:, periodic])
+        pos = (s - 0.5) @ cell.T
+        if not periodic[g]:  # plates: keep the sample and its plates in one frame
+            pos[:, g] = sys_.pos[:, g] - 0.5 * box[g]
+        f = self._gsd.Frame()
+        tilt = np.zeros(3)
+        if boundary == "lees-edwards" and a < g:
+            tilt[{(0, 1): 0, (0, 2): 1, (1, 2): 2}[(a, g)]] = gamma  # HOOMD tilt factor: h[a, g] / L_g
+        f.configuration.box = np.concatenate([box, tilt])
+        n = pos.shape[0]
+        f.particles.N = n
+        f.particles.types = ["sample", "fixed", "driven"]
+        f.particles.typeid = sys_.kind.astype(np.uint32)
+        f.particles.position = pos
+        f.particles.diameter = 2.0 * sys_.radii
+        c = sys_.contacts
+        f.bonds.N = c.ci.shape[0]
+        f.bonds.types = ["contact"]
+        f.bonds.typeid = np.zeros(c.ci.shape[0], np.uint32)
+        f.bonds.group = np.column_stack([c.ci, c.cj]).astype(np.uint32)
+        f.log["bonds/normal_force"] = c.cfn.copy()
+        f.log["bonds/shear_force"] = c.cfs.copy()
+        f.log["bonds/state"] = c.cstate.astype(np.int32)
+        f.log["polypack/time"] = np.array([time_])
+        f.log["polypack/strain"] = np.array([gamma])
+        f.log["polypack/direction"] = np.array([g, a], dtype=np.int64)
+        self._fh.append(f)
+        self.frames += 1
+
+
 # ---------------------------------------------------------------- oscillatory shear
 def _directions(directions):
     if isinstance(directions, (int, np.integer)) and not isinstance(directions, bool):
@@ -700,7 +769,7 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
                       mass_scale: float | None = None, damping: float = DEFAULTS["damping"],
                       friction: float = DEFAULTS["friction"], density: float = DEFAULTS["density"],
                       relax_first: bool | None = None, layers: int = 3, measurement_layers: int = 5,
-                      progress=None) -> ShearResult:
+                      trajectory=None, trajectory_every: int | None = None, progress=None) -> ShearResult:
     """Strain-controlled oscillatory shear of a bonded network by DEM (§2.4 of 003_873b69fc71c74cf6.txt).
 
     The strain ``γ(t) = A_k sin(2π f t)`` has an amplitude ramped linearly over the first
@@ -758,6 +827,10 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
         direction row gets ``measurement_layers`` (G′ per slab) and
         ``storage_modulus_sample`` (G′ of the slab mean); ``storage_modulus`` is from the
         plate force.
+    trajectory : path, optional
+        Write GSD frames (spheres, plate spheres, contacts with their normal and shear
+        forces; see :class:`_Trajectory`) every ``trajectory_every`` steps (default 20 per
+        cycle), all directions in one file, atomically at the end.
     progress : bool, optional
         Progress bar (default: when stderr is a terminal).
 
@@ -862,6 +935,13 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
     volume = float(np.prod(net.box))
     omega = 2.0 * np.pi * frequency
     total = steps_per_cycle * cycles + 1  # one more step records the state at the end of the last cycle
+    if trajectory_every is None:
+        trajectory_every = max(1, steps_per_cycle // 20)
+    trajectory_every = _positive("trajectory_every", trajectory_every, integer=True)
+    import contextlib
+
+    stack = contextlib.ExitStack()
+    traj = stack.enter_context(_Trajectory(trajectory)) if trajectory is not None else None
     per_dir, series = [], []
     bar = progress_bar(total=total * len(dirs), desc=f"shear ({boundary})", progress=progress, unit="step")
     n_part = 0
@@ -893,6 +973,9 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
             ns = 0
             chunk = max(every, (2_000_000 // max(1, n_free)) // every * every)
             chunk = min(chunk, steps_per_cycle)
+            if traj is not None:
+                chunk = trajectory_every
+                traj.write(sys_, 0.0, 0.0, g, a, boundary)
             done = 0
             t0 = time.perf_counter()
             try:
@@ -908,6 +991,9 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
                     if status == K.STATUS_REBUILD:
                         gam = float(K.strain_at(int(sys_.st[K.ST_STEP]), p))
                         sys_.rebuild(gam, g, a, boundary)
+                    elif traj is not None and done % trajectory_every == 0:
+                        stp = int(sys_.st[K.ST_STEP])
+                        traj.write(sys_, float(K.strain_at(stp, p)), stp * dt, g, a, boundary)
                     el = time.perf_counter() - t0
                     if el > 0:
                         bar.set_postfix(cycle=f"{done / steps_per_cycle:.1f}/{cycles}",
@@ -923,8 +1009,17 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
                 series.append(ser)
             if interrupted:
                 break
+    except BaseException as exc:
+        stack.__exit__(type(exc), exc, exc.__traceback__)  # the trajectory file is not written
+        raise
     finally:
         bar.close()
+    if interrupted:
+        # nothing interrupted is recorded as complete: the trajectory file is not written
+        stop = KeyboardInterrupt()
+        stack.__exit__(KeyboardInterrupt, stop, None)
+    else:
+        stack.close()
     wall = time.perf_counter() - t_start
     gp = np.array([r["storage_modulus"] for r in per_dir])
     gpp = np.array([r["loss_modulus"] for r in per_dir])
@@ -947,6 +1042,8 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
         particle_steps_per_second=n_part / wall if wall > 0 else math.nan, relaxation=relax_rec,
         complete=not interrupted,
         parameters={"damping": damping, "friction": friction, "safety": safety, "layers": layers,
+                    "trajectory": str(trajectory) if trajectory is not None and not interrupted else None,
+                    "trajectory_frames": traj.frames if traj is not None else 0,
                     "samples_per_cycle": samples_per_cycle, "seed": seed, "n_bonds": int(net.i.shape[0]),
                     "n_particles": int(net.pos.shape[0]), "directions": [list(d) for d in dirs]},
     )
