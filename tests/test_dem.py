@@ -304,3 +304,29 @@ def test_trajectory_gsd(random_net, tmp_path):
         # xz tilt (shear along x, normal z) equals the strain logged with the frame
         assert f.configuration.box[4] == pytest.approx(float(f.log["polypack/strain"][0]), rel=1e-6)
         assert np.any(f.log["bonds/normal_force"] != 0)
+
+
+def test_sigint_is_deferred_to_a_chunk_end(random_net, monkeypatch):
+    # a Ctrl-C during a kernel chunk stops the run at the end of that chunk (the chunk completes)
+    import signal
+
+    from polypack._kernels import dem as K
+    from polypack.errors import Interrupted
+
+    real = K.run
+    calls = {"n": 0, "steps": 0}
+
+    def sigint_inside(*args):
+        calls["n"] += 1
+        if calls["n"] == 2:
+            signal.raise_signal(signal.SIGINT)
+        out = real(*args)
+        calls["steps"] += out[1]
+        return out
+
+    monkeypatch.setattr(K, "run", sigint_inside)
+    with pytest.raises(Interrupted) as info:
+        dem.oscillatory_shear(random_net, directions=[(2, 0)], cycles=4, steps_per_cycle=2000, density=1.0)
+    res = info.value.partial
+    assert calls["n"] == 2 and not res.complete
+    assert res.per_direction[0]["steps"] == calls["steps"]

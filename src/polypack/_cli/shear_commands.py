@@ -85,6 +85,8 @@ def register(app: typer.Typer) -> None:
             f"  G' = {res.storage_modulus:.6g} +- {res.storage_modulus_sd:.3g}   G'' = {res.loss_modulus:.4g}"
             f"   ({res.wall_time:.1f} s, {res.particle_steps_per_second:.3g} particle-steps/s)"
         )
+        if interrupted:  # what was measured is printed above; nothing incomplete is written
+            raise typer.Exit(130)
         if json_out is not None and res.per_direction:
             out = res.to_dict(series=True)
             out["source"] = str(source)
@@ -104,5 +106,3 @@ def register(app: typer.Typer) -> None:
                 fig.savefig(tmp, format="png", dpi=120)
             plt.close(fig)
             typer.echo(f"  wrote {plot}")
-        if interrupted:
-            raise typer.Exit(130)

@@ -43,8 +43,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .. import _interrupt
 from .._util import progress_bar
-from ..errors import InvalidInputError
+from ..errors import Interrupted, InvalidInputError
 
 __all__ = [
     "oscillatory_shear",
@@ -84,12 +85,15 @@ _NO_LAYERS = np.zeros(0)
 _NO_LAYER_SAMPLES = np.zeros((1, 1))
 
 
-class ShearInterrupted(KeyboardInterrupt):
-    """Raised when a run is interrupted; ``.result`` holds what was measured so far
-    (``result.complete`` is False)."""
+class ShearInterrupted(Interrupted):
+    """Raised when a run is interrupted (Ctrl-C, honoured at the end of a kernel chunk);
+    ``.result`` (also ``.partial``) holds what was measured so far (``result.complete`` is
+    False).  A :class:`polypack.errors.Interrupted`, hence a ``KeyboardInterrupt``."""
 
     def __init__(self, result):
-        super().__init__("oscillatory shear interrupted")
+        n = len(result.per_direction) if result is not None else 0
+        super().__init__(f"oscillatory shear interrupted ({n} direction(s) measured, the last incomplete)",
+                         partial=result)
         self.result = result
 
 
@@ -577,7 +581,8 @@ class ShearResult:
     per_direction : list of dict
         One row per (plate-normal, shear) pair: ``normal``, ``shear``, ``voigt``
         (C44/C55/C66), ``storage_modulus``, ``loss_modulus``, ``complex_modulus``,
-        ``phase_angle`` (rad), ``cycle_storage_modulus`` (fit per cycle), ``breakages``,
+        ``phase_angle`` (rad), ``cycle_storage_modulus`` (fit per cycle),
+        ``cycle_peak_modulus`` (the seed's peak stress over peak strain per cycle), ``breakages``,
         ``energy`` (per-cycle balance) and ``complete``.
     series : list of dict
         Per direction: ``time``, ``strain``, ``stress`` (the measured shear stress),
@@ -947,6 +952,8 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
     n_part = 0
     steps_run = 0
     interrupted = False
+    section = _interrupt.deferred()
+    section.__enter__()
     try:
         for (g, a) in dirs:
             sys_ = _System(net, pos_start.copy(), rho, boundary, g, a, friction, layers)
@@ -998,6 +1005,8 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
                     if el > 0:
                         bar.set_postfix(cycle=f"{done / steps_per_cycle:.1f}/{cycles}",
                                         steps_s=f"{done / el:.3g}")
+                    if _interrupt.consume():  # Ctrl-C: stop at this safe point (end of a chunk)
+                        raise KeyboardInterrupt
             except KeyboardInterrupt:
                 interrupted = True
             row, ser = _direction_result(K, samples[:ns], g, a, omega, amplitude, ramp, discard_cycles,
@@ -1011,9 +1020,11 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
                 break
     except BaseException as exc:
         stack.__exit__(type(exc), exc, exc.__traceback__)  # the trajectory file is not written
+        section.__exit__(type(exc), exc, exc.__traceback__)
         raise
     finally:
         bar.close()
+    section.__exit__(None, None, None)
     if interrupted:
         # nothing interrupted is recorded as complete: the trajectory file is not written
         stop = KeyboardInterrupt()
@@ -1071,10 +1082,13 @@ def _direction_result(K, s, g, a, omega, amplitude, ramp, discard, spc, boundary
         sel = cyc < max(n_full, 1)
     gp, gpp = _fit(t[sel], gamma[sel], stress[sel], omega, amp[sel])
     per_cycle = []
+    peak = []  # the seed's |G*| of each cycle: peak stress over peak strain (offset removed)
     for k in range(n_full):
         m = cyc == k
         if m.sum() >= 8:
             per_cycle.append(_fit(t[m], gamma[m], stress[m], omega, amp[m])[0])
+            sm = stress[m] - np.mean(stress[m])
+            peak.append(float(np.max(np.abs(sm)) / np.max(np.abs(gamma[m]))))
     # energy balance per complete cycle (rows at the cycle starts; last row may be missing)
     energy = []
     for k in range(n_full):
@@ -1092,7 +1106,8 @@ def _direction_result(K, s, g, a, omega, amplitude, ramp, discard, spc, boundary
     row = {
         "normal": g, "shear": a, "voigt": _VOIGT_NAME[_VOIGT_INDEX[frozenset((a, g))]],
         "storage_modulus": gp, "loss_modulus": gpp, "complex_modulus": math.hypot(gp, gpp),
-        "phase_angle": math.atan2(gpp, gp), "cycle_storage_modulus": per_cycle, "breakages": broken,
+        "phase_angle": math.atan2(gpp, gp), "cycle_storage_modulus": per_cycle,
+        "cycle_peak_modulus": peak, "breakages": broken,
         "breakages_tension": int(sys_.st[K.ST_BREAK_TENSION]), "breakages_shear": int(sys_.st[K.ST_BREAK_SHEAR]),
         "energy": energy, "complete": bool(complete), "steps": int(sys_.st[K.ST_STEP]),
     }
