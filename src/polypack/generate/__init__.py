@@ -1,5 +1,5 @@
-"""Generators of packings: Lubachevsky–Stillinger growth (:func:`pack`), shaking (SCRM), deposition
-and the DLVO pair potential of the Brownian-dynamics gels.
+"""Generators of packings: Lubachevsky–Stillinger growth (:func:`pack`), shaking (SCRM), deposition,
+Brownian dynamics with DLVO forces (:func:`brownian`) and the DLVO pair potential.
 
 Functions are imported lazily so that importing this package does not compile kernels.
 """
@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from importlib import import_module as _import_module
 
-__all__ = ["pack", "shake", "scrm", "deposit", "dlvo_parameters", "dlvo_potential",
+__all__ = ["pack", "shake", "scrm", "deposit", "brownian", "brownian_bonds", "dlvo_parameters", "dlvo_potential",
            "dlvo_force", "dlvo_extrema", "plot_dlvo", "DLVO_DEFAULTS"]
 
 _LAZY = {
@@ -16,6 +16,8 @@ _LAZY = {
     "shake": ("polypack.generate.shake", "shake"),
     "scrm": ("polypack.generate.shake", "scrm"),
     "deposit": ("polypack.generate.deposit", "deposit"),
+    "brownian": ("polypack.generate.brownian", "brownian"),
+    "brownian_bonds": ("polypack.generate.brownian", "brownian_bonds"),
     "dlvo_parameters": ("polypack.generate.dlvo", "dlvo_parameters"),
     "dlvo_potential": ("polypack.generate.dlvo", "dlvo_potential"),
     "dlvo_force": ("polypack.generate.dlvo", "dlvo_force"),
