@@ -202,3 +202,21 @@ def test_keyboard_interrupt_propagates(monkeypatch):
     monkeypatch.setattr(bdmod.BrownianSimulation, "run", run)
     with pytest.raises(KeyboardInterrupt):
         _gel(100, 0.0, seed=1)
+
+
+def test_ctrl_c_stops_at_a_safe_point(monkeypatch):
+    """A Ctrl-C during the run (deferred by polypack._interrupt) raises Interrupted between
+    kernel chunks; nothing is returned."""
+    from polypack import _interrupt
+    from polypack.errors import Interrupted
+
+    calls = {"n": 0}
+    orig = _interrupt.consume
+
+    def consume():
+        calls["n"] += 1
+        return True if calls["n"] == 4 else orig()
+
+    monkeypatch.setattr(_interrupt, "consume", consume)
+    with pytest.raises(Interrupted, match="brownian interrupted"):
+        _gel(100, 0.0, seed=1)

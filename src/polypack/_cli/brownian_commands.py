@@ -38,9 +38,11 @@ def register(app: typer.Typer) -> None:
         import warnings
 
         from .. import io
-        from .._util import atomic_path
+        from .._util import atomic_path, output_path
         from ..generate.brownian import brownian
 
+        io.format_for(str(output))
+        output_path(output)  # checked before the run
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # reported in the summary line instead
             pk = brownian(

@@ -455,7 +455,9 @@ def brownian(
     OverlapError
         If the final gel has a relative overlap beyond :data:`OVERLAP_TOLERANCE`.
     KeyboardInterrupt
-        Propagates; no partial result is returned.
+        Propagates (as :class:`polypack.errors.Interrupted` when Ctrl-C arrives inside
+        the run, raised at the next safe point between kernel chunks); no partial result
+        is returned.
     """
     n = _check_int("n", n, 16)
     phi = float(volume_fraction)
@@ -490,35 +492,42 @@ def brownian(
     series = {"time": [0.0], "coordination": [0.0], "clusters": [n], "largest_cluster": [1],
               "largest_fraction": [1.0 / n]}
     converged = False
+    from .. import _interrupt
+
     bar = progress_bar(total=None, desc=f"brownian Ψ0={1e3 * p.surface_potential:g} mV", progress=progress,
                        unit="record")
-    try:
-        while True:
-            if sim.time >= max_time * (1 - 1e-12) or (max_steps is not None and sim.steps >= max_steps):
-                break
-            k = steps_per_record if max_steps is None else min(steps_per_record, max_steps - sim.steps)
-            sim.run(k)
-            _, sizes = sim.clusters()
-            largest = int(sizes.max())
-            series["time"].append(sim.time)
-            series["coordination"].append(sim.coordination)
-            series["clusters"].append(int(sizes.size))
-            series["largest_cluster"].append(largest)
-            series["largest_fraction"].append(largest / n)
-            bar.update(1)
-            bar.set_postfix_str(f"t={sim.time * 1e3:.2f} ms ({sim.time / tau:.2f} a²/D0), "
-                                f"clusters={sizes.size}, largest={largest}, C={sim.coordination:.3f}")
-            m = len(series["time"]) - 1
-            if sim.time >= min_time and m >= window_records:
-                c_now, c_then = series["coordination"][m], series["coordination"][m - window_records]
-                f_now, f_then = series["largest_fraction"][m], series["largest_fraction"][m - window_records]
-                if (c_now > 0 and abs(c_now - c_then) <= coordination_tolerance * c_now
-                        and abs(f_now - f_then) <= cluster_tolerance):
-                    converged = True
+    # Ctrl-C is deferred to the safe points between kernel chunks, where it raises
+    # polypack.errors.Interrupted (a KeyboardInterrupt); an interrupted gel is never returned.
+    with _interrupt.deferred():
+        try:
+            while True:
+                _interrupt.check(f"brownian interrupted at t = {sim.time:.3g} s after {sim.steps} steps")
+                if sim.time >= max_time * (1 - 1e-12) or (max_steps is not None and sim.steps >= max_steps):
                     break
-        residual = sim.relax_constraints()
-    finally:
-        bar.close()
+                k = steps_per_record if max_steps is None else min(steps_per_record, max_steps - sim.steps)
+                sim.run(k)
+                _, sizes = sim.clusters()
+                largest = int(sizes.max())
+                series["time"].append(sim.time)
+                series["coordination"].append(sim.coordination)
+                series["clusters"].append(int(sizes.size))
+                series["largest_cluster"].append(largest)
+                series["largest_fraction"].append(largest / n)
+                bar.update(1)
+                bar.set_postfix_str(f"t={sim.time * 1e3:.2f} ms ({sim.time / tau:.2f} a²/D0), "
+                                    f"clusters={sizes.size}, largest={largest}, C={sim.coordination:.3f}")
+                m = len(series["time"]) - 1
+                if sim.time >= min_time and m >= window_records:
+                    c_now, c_then = series["coordination"][m], series["coordination"][m - window_records]
+                    f_now, f_then = series["largest_fraction"][m], series["largest_fraction"][m - window_records]
+                    if (c_now > 0 and abs(c_now - c_then) <= coordination_tolerance * c_now
+                            and abs(f_now - f_then) <= cluster_tolerance):
+                        converged = True
+                        break
+            _interrupt.check(f"brownian interrupted at t = {sim.time:.3g} s after {sim.steps} steps")
+            residual = sim.relax_constraints()
+        finally:
+            bar.close()
     wall = time.perf_counter() - t_wall
     if not converged:
         warnings.warn(
