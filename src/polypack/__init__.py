@@ -52,6 +52,7 @@ __all__ = [
     "shake",
     "scrm",
     "deposit",
+    "brownian",
     "io",
     "psd",
     "analysis",
@@ -69,6 +70,7 @@ _LAZY_FUNCS = {
     "shake": ("polypack.generate.shake", "shake"),
     "scrm": ("polypack.generate.shake", "scrm"),
     "deposit": ("polypack.generate.deposit", "deposit"),
+    "brownian": ("polypack.generate.brownian", "brownian"),
 }
 
 

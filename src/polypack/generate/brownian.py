@@ -1,0 +1,587 @@
+"""Colloidal gels by Brownian dynamics with DLVO forces (§2.2 of 003_873b69fc71c74cf6.txt).
+
+Equal spheres of radius ``a`` in a periodic cube of edge Eq. (5) of
+003_873b69fc71c74cf6.txt, ``L = a (4 N π / (3 Φ))^(1/3)``, move by free-draining
+overdamped Brownian dynamics (Ermak & McCammon 1978)::
+
+    r(t + Δt) = r(t) + (D0 / kT) F Δt + sqrt(2 D0 Δt) ξ,     D0 = kT / (6 π η a)
+
+with Stokes drag, Brownian displacements and DLVO pair forces
+(:mod:`polypack.generate.dlvo`: Hamaker van der Waals + constant-potential double
+layer).  The numerical engine is :mod:`polypack._kernels.bd`.
+
+Coagulation rule
+----------------
+The primary minimum (about -420 kBT deep with the defaults, at the 0.4 nm minimum
+separation) cannot be resolved with steps that resolve Brownian motion over a
+Debye length, and nothing escapes it.  Pairs that reach it are therefore **bonded
+irreversibly**: an unbonded pair whose surface separation falls below
+``bond_width`` (default 1 nm, where the well is still more than 150 kBT deep) is
+bonded, and after every step the centres of bonded pairs are projected back into
+the shell ``0 <= h <= bond_width`` (and any overlap removed) by symmetric moves along
+the line of centres (Heyes & Melrose 1993 overlap removal plus a tether).  Bonds
+carry no tangential constraint, so bonded spheres roll on each other as they do in
+the central DLVO well, which lets clusters restructure and the coordination rise.
+Unbonded pairs feel the resolved DLVO force out to the cutoff; on the steep inner
+side of the barrier, where one step would carry a pair through contact, the
+attraction is capped so that a step closes at most a quarter of the gap (the pair
+then reaches contact in a few steps instead of jumping through it).  No sphere
+ever overlaps another by more than the projection tolerance.
+
+Stopping rule
+-------------
+Every ``record_interval`` the coordination (2 bonds / N), the number of clusters and
+the largest cluster are recorded.  The run stops when, over the last
+``stable_window``, the coordination changed by less than ``coordination_tolerance``
+(relative) and the largest-cluster fraction by less than
+``cluster_tolerance``, or when ``max_time``/``max_steps`` is used up (then
+``meta["brownian"]["converged"]`` is False and a warning is issued).
+
+References
+----------
+Ermak, D. L. & McCammon, J. A., J. Chem. Phys. 69, 1352 (1978).
+Hütter, M., J. Colloid Interface Sci. 231, 337 (2000).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+
+import numpy as np
+
+from .._util import as_seed_sequence, progress_bar, seed_record
+from ..errors import InfeasibleError, InvalidInputError, OverlapError
+from ..packing import Packing
+from .dlvo import DLVOParameters, _terms, dlvo_extrema, dlvo_parameters
+
+__all__ = ["brownian", "BrownianSimulation", "brownian_bonds", "MAX_STEP_FRACTION", "OVERLAP_TOLERANCE"]
+
+#: Largest allowed rms Brownian step per coordinate, ``sqrt(2 D0 Δt)``, in Debye lengths.
+MAX_STEP_FRACTION = 0.5
+#: Default rms step per coordinate in Debye lengths.
+DEFAULT_STEP_FRACTION = 0.2
+#: Largest relative overlap ``1 - d_ij / (2a)`` tolerated in a returned gel (the final
+#: overlap removal stops when no correction exceeds this many radii).
+OVERLAP_TOLERANCE = 1e-6
+
+
+def _check_positive(name, value, allow_zero=False):
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InvalidInputError(f"{name}={value!r}: must be a number") from None
+    if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
+        raise InvalidInputError(f"{name}={value!r}: must be finite and {'>= 0' if allow_zero else '> 0'}")
+    return v
+
+
+def _check_int(name, value, minimum):
+    if isinstance(value, bool) or int(value) != value or value < minimum:
+        raise InvalidInputError(f"{name}={value!r}: must be an integer >= {minimum}")
+    return int(value)
+
+
+class BrownianSimulation:
+    """State of a Brownian-dynamics run of equal spheres (SI in, SI out).
+
+    Parameters
+    ----------
+    positions : (N, 3) array_like
+        Initial centres (m).
+    box : float or (3,) array_like
+        Periodic box lengths (m).
+    parameters : DLVOParameters
+        From :func:`polypack.generate.dlvo_parameters` (radius, temperature,
+        viscosity, Hamaker constant, Debye length, model).
+    time_step : float, optional
+        Δt in seconds; default: the rms step per coordinate ``sqrt(2 D0 Δt)`` is
+        0.2 Debye lengths.  Larger than 0.5 Debye lengths is refused.
+    bond_width : float or None
+        Capture separation and shell width of bonds (m), default 1 nm; None: no
+        bonds and no overlap projection (purely soft DLVO forces, e.g. a stable
+        repulsive suspension).
+    drift_cap : float
+        Largest fraction of a pair's gap its attraction may close in one step
+        (0 = no cap).
+    cutoff : float, optional
+        Centre-distance cutoff of the DLVO force (m), default ``2.5 a``.
+    skin : float
+        Verlet-list skin in units of ``a``.
+    trap_stiffness : float
+        Stiffness (N/m) of an optional harmonic trap holding each sphere near the box
+        centre (validation; 0 = none).
+    seed : int or SeedSequence
+    max_bonds_per_particle : int
+    """
+
+    def __init__(self, positions, box, parameters: DLVOParameters, *, time_step=None, bond_width=1e-9,
+                 drift_cap=0.25, cutoff=None, skin=0.4, trap_stiffness=0.0, seed=None,
+                 max_bonds_per_particle=24, table_points=8192, max_sweeps=4, projection_tolerance=1e-7):
+        from .._kernels import bd
+        from ..neighbors import choose_cells
+
+        self._bd = bd
+        p = parameters
+        if not isinstance(p, DLVOParameters):
+            raise InvalidInputError("parameters must be a DLVOParameters (polypack.generate.dlvo_parameters)")
+        self.parameters = p
+        a = p.radius
+        pos = np.array(positions, dtype=np.float64)
+        if pos.ndim != 2 or pos.shape[1] != 3 or pos.shape[0] < 1:
+            raise InvalidInputError(f"positions must have shape (N, 3) with N >= 1, got {pos.shape}")
+        if not np.all(np.isfinite(pos)):
+            raise InvalidInputError("positions must be finite")
+        bx = np.array(box, dtype=np.float64)
+        if bx.ndim == 0:
+            bx = np.full(3, float(bx))
+        if bx.shape != (3,) or not np.all(np.isfinite(bx)) or np.any(bx <= 0):
+            raise InvalidInputError(f"box={box!r}: must be a positive scalar or 3 positive lengths")
+        D0 = p.diffusion_coefficient
+        lam = p.debye_length
+        if time_step is None:
+            time_step = (DEFAULT_STEP_FRACTION * lam) ** 2 / (2.0 * D0)
+        dt = _check_positive("time_step", time_step)
+        rms = math.sqrt(2.0 * D0 * dt)
+        if rms > MAX_STEP_FRACTION * lam:
+            raise InvalidInputError(
+                f"time_step={dt:g} s gives an rms Brownian step sqrt(2 D0 dt) = {rms:.3g} m = "
+                f"{rms / lam:.3g} Debye lengths; at most {MAX_STEP_FRACTION} allowed "
+                f"(time_step <= {(MAX_STEP_FRACTION * lam) ** 2 / (2 * D0):.3g} s)"
+            )
+        self.time_step = dt
+        self.rms_step = rms
+        if cutoff is None:
+            cutoff = 2.5 * a
+        rc = _check_positive("cutoff", cutoff) / a
+        if rc <= 2.0:
+            raise InvalidInputError(f"cutoff={cutoff!r} m must exceed the contact distance 2a = {2 * a:g} m")
+        skin = _check_positive("skin", skin)
+        independent = p.hamaker == 0.0 and p.surface_potential == 0.0 and bond_width is None
+        if rc + skin > 0.5 * bx.min() / a and not independent:
+            raise InvalidInputError(
+                f"cutoff + skin = {(rc + skin) * a:g} m exceeds half the box {0.5 * bx.min():g} m; "
+                "use more spheres or a smaller cutoff"
+            )
+        if bond_width is None:
+            width = None
+        else:
+            width = _check_positive("bond_width", bond_width)
+            if width >= a:
+                raise InvalidInputError(f"bond_width={bond_width!r} m must be smaller than the radius {a!r} m")
+        self.bond_width = width
+        cap = _check_positive("drift_cap", drift_cap, allow_zero=True)
+        if cap >= 1.0:
+            raise InvalidInputError(f"drift_cap={drift_cap!r}: must be in [0, 1)")
+        dt_r = dt / p.brownian_time
+        params = np.zeros(bd.N_PARAMS)
+        params[bd.P_DT] = dt_r
+        params[bd.P_NOISE] = math.sqrt(2.0 * dt_r)
+        params[bd.P_R_CUT] = rc
+        params[bd.P_SKIN] = skin
+        params[bd.P_BOND_WIDTH] = (width / a) if width is not None else -1.0
+        params[bd.P_CAP_DRIFT] = cap
+        params[bd.P_SWEEPS] = _check_int("max_sweeps", max_sweeps, 1)
+        params[bd.P_PROJ_TOL] = _check_positive("projection_tolerance", projection_tolerance)
+        k_trap = _check_positive("trap_stiffness", trap_stiffness, allow_zero=True)
+        params[bd.P_TRAP_K] = k_trap * a * a / p.kT
+        # force table from a small overlap (or the bond width) to the cutoff
+        lo = (width / a) if width is not None else -0.1
+        hi = rc - 2.0
+        npts = _check_int("table_points", table_points, 16)
+        hgrid = np.linspace(lo, hi, npts)
+        _, f = _terms(a * (2.0 + hgrid), p)
+        self._table = np.ascontiguousarray(f * a / p.kT)
+        params[bd.P_TAB_LO] = lo
+        params[bd.P_TAB_DH] = (hi - lo) / (npts - 1)
+        self._params = params
+        self._pos = np.ascontiguousarray(pos / a)
+        self._box = np.ascontiguousarray(bx / a)
+        n = pos.shape[0]
+        self._state = np.zeros(bd.N_STATE)
+        self._istate = np.zeros(bd.N_ISTATE, np.int64)
+        maxb = _check_int("max_bonds_per_particle", max_bonds_per_particle, 1)
+        self._bonds = np.zeros((max(16, (n * maxb) // 2 + 1), 2), np.int64)
+        self._adj = np.zeros((n, maxb), np.int64)
+        self._deg = np.zeros(n, np.int64)
+        if p.hamaker == 0.0 and p.surface_potential == 0.0 and width is None:
+            params[bd.P_R_CUT] = 0.0  # independent spheres: no neighbour list
+        self._ncell = choose_cells(self._box, n, rc + skin)
+        self._seed = as_seed_sequence(seed)
+        self._rng = self._seed.generate_state(4, np.uint64)
+        if not np.any(self._rng):
+            self._rng[0] = np.uint64(1)
+
+    # ------------------------------------------------------------------ running
+    @property
+    def n(self) -> int:
+        return self._pos.shape[0]
+
+    def run(self, steps, noise=True, _params=None):
+        """Advance ``steps`` Brownian time steps (``noise=False``: noise-free steps)."""
+        steps = _check_int("steps", steps, 0)
+        bd = self._bd
+        params = self._params if _params is None else _params
+        if not noise:
+            params = params.copy()
+            params[bd.P_NOISE] = 0.0
+        status = bd.run(self._pos, self._box, params, self._state, self._istate, self._table, self._bonds,
+                        self._adj, self._deg, self._ncell, self._rng, steps)
+        if status != bd.Status.OK:  # the bond arrays hold N * max_bonds_per_particle / 2: only the per-sphere limit
+            raise InfeasibleError(
+                f"a sphere reached max_bonds_per_particle={self._adj.shape[1]} bonds; raise the limit"
+            )
+
+    @property
+    def time(self) -> float:
+        """Simulated time in seconds."""
+        return float(self._state[self._bd.S_TIME]) * self.parameters.brownian_time
+
+    @property
+    def steps(self) -> int:
+        return int(self._istate[self._bd.I_STEPS])
+
+    @property
+    def rebuilds(self) -> int:
+        return int(self._istate[self._bd.I_REBUILDS])
+
+    @property
+    def positions(self) -> np.ndarray:
+        """Unwrapped centres (m) (a copy)."""
+        return self._pos * self.parameters.radius
+
+    @property
+    def box(self) -> np.ndarray:
+        return self._box * self.parameters.radius
+
+    @property
+    def n_bonds(self) -> int:
+        return int(self._istate[self._bd.I_NBONDS])
+
+    @property
+    def bonds(self) -> np.ndarray:
+        """(M, 2) int64 bonded pairs (a copy)."""
+        return self._bonds[: self.n_bonds].copy()
+
+    @property
+    def coordination(self) -> float:
+        """Mean bonds per sphere, 2 M / N."""
+        return 2.0 * self.n_bonds / self.n
+
+    def clusters(self):
+        """``(labels, sizes)`` of the bond graph's connected components."""
+        return self._bd.cluster_labels(self.n, self._bonds, self.n_bonds)
+
+    def wrapping_axes(self):
+        """(3,) bool: axes along which a bonded cluster wraps the periodic box (percolation)."""
+        return self._bd.wrapping_axes(self._pos, self._box, self._bonds, self.n_bonds)
+
+    def _sweep(self, max_sweeps, overlap_only, tolerance=None):
+        bd = self._bd
+        q = self._params.copy()
+        if tolerance is not None:
+            q[bd.P_PROJ_TOL] = tolerance
+        q[bd.P_SWEEPS] = _check_int("max_sweeps", max_sweeps, 1)
+        q[bd.P_NOISE] = 0.0
+        q[bd.P_DT] = 0.0
+        q[bd.P_OVERLAP_ONLY] = 1.0 if overlap_only else 0.0
+        t, steps = self._state[bd.S_TIME], self._istate[bd.I_STEPS]
+        self._state[bd.S_MAX_RESIDUAL] = 0.0
+        status = bd.run(self._pos, self._box, q, self._state, self._istate, self._table, self._bonds,
+                        self._adj, self._deg, self._ncell, self._rng, 1)
+        self._state[bd.S_TIME], self._istate[bd.I_STEPS] = t, steps
+        if status != bd.Status.OK:
+            raise InfeasibleError(f"a sphere reached max_bonds_per_particle={self._adj.shape[1]} bonds")
+        return self.max_residual
+
+    def relax_constraints(self, max_sweeps=2000):
+        """Noise-free projections (no forces, no time) that finish a gel.
+
+        First up to ``max_sweeps`` sweeps of the full bond constraints (capture,
+        shells), then overlap removal alone until no overlap exceeds the projection
+        tolerance: where the bond shells of an over-constrained cluster cannot all
+        hold, the bond is left stretched (reported by :meth:`bond_gaps`) rather than
+        a sphere overlapping.  Returns the largest overlap correction of the last
+        sweep (m).
+        """
+        if self.bond_width is None:
+            return 0.0
+        self._sweep(max_sweeps, False)
+        return self._sweep(20 * max_sweeps, True, tolerance=OVERLAP_TOLERANCE)
+
+    def bond_gaps(self) -> np.ndarray:
+        """Surface separations (m) of the bonded pairs (minimum image)."""
+        b = self.bonds
+        d = self._pos[b[:, 1]] - self._pos[b[:, 0]]
+        d -= self._box * np.round(d / self._box)
+        return (np.linalg.norm(d, axis=1) - 2.0) * self.parameters.radius
+
+    @property
+    def max_residual(self) -> float:
+        """Largest constraint violation (m) left after the projection sweeps of any step."""
+        return float(self._state[self._bd.S_MAX_RESIDUAL]) * self.parameters.radius
+
+    def mean_virial(self) -> float:
+        """Time average of ``sum_pairs r F`` (J) over all steps run so far."""
+        s = self._state
+        steps = s[self._bd.S_VIRIAL_STEPS]
+        return float(s[self._bd.S_VIRIAL] / steps) * self.parameters.kT if steps else float("nan")
+
+    def reset_virial(self):
+        self._state[self._bd.S_VIRIAL] = 0.0
+        self._state[self._bd.S_VIRIAL_STEPS] = 0.0
+
+
+def brownian_bonds(packing: Packing):
+    """Bond arrays ``(i, j, shift)`` stored by :func:`brownian` in ``packing.meta["bonds"]``.
+
+    ``shift`` (M, 3) int64 is the periodic image of ``j`` seen from ``i``: the bond
+    vector is ``x[j] + shift * box - x[i]`` (the BondNetwork convention), ready for
+    ``BondNetwork.from_pairs(packing, i, j, shift)``.
+    """
+    rec = packing.meta.get("bonds")
+    if rec is None:
+        raise InvalidInputError("packing.meta has no 'bonds' (not made by polypack.brownian)")
+    i = np.asarray(rec["i"], dtype=np.int64)
+    j = np.asarray(rec["j"], dtype=np.int64)
+    shift = np.asarray(rec["shift"], dtype=np.int64).reshape(-1, 3)
+    return i, j, shift
+
+
+def _initial_positions(n, a, box_len, min_gap, seed):
+    """A hard-sphere fluid at Φ with every surface gap >= ``min_gap`` (Lubachevsky–Stillinger)."""
+    from .lubachevsky import pack
+
+    a_eff = a + 0.5 * min_gap
+    phi_eff = n * 4.0 / 3.0 * math.pi * a_eff**3 / box_len**3
+    pk = pack(np.full(n, a_eff), volume_fraction=phi_eff, seed=seed, progress=False)
+    scale = box_len / float(pk.box[0])
+    return np.asarray(pk.positions) * scale
+
+
+def brownian(
+    n,
+    volume_fraction=0.4,
+    surface_potential=0.015,
+    *,
+    seed=None,
+    radius=None,
+    temperature=None,
+    viscosity=None,
+    relative_permittivity=None,
+    hamaker=None,
+    ionic_strength=None,
+    debye_length=None,
+    minimum_separation=None,
+    model="auto",
+    time_step=None,
+    bond_width=1e-9,
+    cutoff=None,
+    record_interval=None,
+    stable_window=None,
+    coordination_tolerance=0.01,
+    cluster_tolerance=0.005,
+    min_time=None,
+    max_time=None,
+    max_steps=None,
+    progress=None,
+) -> Packing:
+    """Coagulated colloidal gel by Brownian dynamics with DLVO forces.
+
+    The Brownian-dynamics structure set of §2.2 of 003_873b69fc71c74cf6.txt: ``n``
+    equal spheres start as a stable hard-sphere fluid at ``volume_fraction`` in the
+    periodic cube of Eq. (5) of 003_873b69fc71c74cf6.txt and coagulate under
+    Brownian motion, Stokes drag and DLVO forces until the bond network stops
+    evolving.  The rule and the stopping criterion are in the module docstring of
+    :mod:`polypack.generate.brownian`.
+
+    Parameters
+    ----------
+    n : int
+        Number of spheres (>= 16).
+    volume_fraction : float
+        Φ in (0, 0.55]; the seed uses 0.4.
+    surface_potential : float
+        Ψ0 in volts (seed: 0, 0.012 ... 0.015).  0 gives pure van der Waals
+        attraction (fast, diffusion-limited coagulation); higher Ψ0 a secondary
+        minimum and a barrier (slower, reaction-limited).
+    seed : int or numpy.random.SeedSequence, optional
+        Seeds the initial fluid and the Brownian noise; recorded in meta.
+    radius, temperature, viscosity, relative_permittivity, hamaker, ionic_strength, debye_length, minimum_separation, model
+        Physical parameters (SI), as :func:`polypack.generate.dlvo_parameters`;
+        defaults in :data:`polypack.generate.dlvo.DLVO_DEFAULTS`.
+    time_step : float, optional
+        Δt (s); default: rms step per coordinate ``sqrt(2 D0 Δt)`` = 0.2 Debye
+        lengths; an rms step above 0.5 Debye lengths is refused.
+    bond_width : float
+        Capture separation and bond shell width (m), default 1 nm (coagulation
+        rule in the module docstring).
+    cutoff : float, optional
+        Centre-distance cutoff of the DLVO force (m), default 2.5 a.
+    record_interval : float, optional
+        Seconds between records of the time series (default 0.05 a²/D0).
+    stable_window : float, optional
+        Seconds over which the structure must be stable (default 2 a²/D0).
+    coordination_tolerance, cluster_tolerance : float
+        Relative change of the coordination and absolute change of the
+        largest-cluster fraction allowed over ``stable_window``.
+    min_time, max_time : float, optional
+        Simulated-time bounds (s): defaults ``stable_window`` and 60 a²/D0.
+    max_steps : int, optional
+        Step budget (default unlimited up to ``max_time``).
+    progress : bool, optional
+        Progress bar (simulated time, clusters, coordination); default when stderr
+        is a terminal.
+
+    Returns
+    -------
+    Packing
+        Positions (m, folded into the box), radii ``a`` (m), box ``L`` (m).
+        ``meta["bonds"]``: ``{"i": [...], "j": [...], "shift": [[sx, sy, sz], ...]}``
+        plain lists (read them with :func:`brownian_bonds`; bond vector
+        ``x[j] + shift * box - x[i]``).  ``meta["brownian"]``: parameters, time
+        step, bond width, steps, simulated and wall time, ``converged``,
+        ``percolating`` (per axis), and the time series ``series`` with keys
+        ``time`` (s), ``coordination``, ``clusters``, ``largest_cluster`` (spheres)
+        and ``largest_fraction``.
+
+    Raises
+    ------
+    InvalidInputError
+        Bad ``n``, ``volume_fraction``, negative radius/viscosity/temperature, an
+        unknown electrostatic ``model``, a time step whose rms displacement exceeds
+        0.5 Debye lengths, ...
+    OverlapError
+        If the final gel has a relative overlap beyond :data:`OVERLAP_TOLERANCE`.
+    KeyboardInterrupt
+        Propagates (as :class:`polypack.errors.Interrupted` when Ctrl-C arrives inside
+        the run, raised at the next safe point between kernel chunks); no partial result
+        is returned.
+    """
+    n = _check_int("n", n, 16)
+    phi = float(volume_fraction)
+    if not (0.0 < phi <= 0.55):
+        raise InvalidInputError(f"volume_fraction={volume_fraction!r}: must be in (0, 0.55]")
+    p = dlvo_parameters(surface_potential, radius=radius, temperature=temperature, viscosity=viscosity,
+                        relative_permittivity=relative_permittivity, hamaker=hamaker,
+                        ionic_strength=ionic_strength, debye_length=debye_length,
+                        minimum_separation=minimum_separation, model=model)
+    a = p.radius
+    tau = p.brownian_time
+    box_len = a * (4.0 * n * math.pi / (3.0 * phi)) ** (1.0 / 3.0)  # Eq. (5) of 003_873b69fc71c74cf6.txt
+    record_interval = 0.05 * tau if record_interval is None else _check_positive("record_interval", record_interval)
+    stable_window = 2.0 * tau if stable_window is None else _check_positive("stable_window", stable_window)
+    min_time = stable_window if min_time is None else _check_positive("min_time", min_time, allow_zero=True)
+    max_time = 60.0 * tau if max_time is None else _check_positive("max_time", max_time)
+    if max_steps is not None:
+        max_steps = _check_int("max_steps", max_steps, 1)
+    coordination_tolerance = _check_positive("coordination_tolerance", coordination_tolerance)
+    cluster_tolerance = _check_positive("cluster_tolerance", cluster_tolerance)
+    ss = as_seed_sequence(seed)
+    s_init, s_noise = ss.spawn(2)
+
+    t_wall = time.perf_counter()
+    # initial fluid: a stable suspension with every surface gap at least two Debye lengths
+    pos0 = _initial_positions(n, a, box_len, 2.0 * p.debye_length, s_init)
+    sim = BrownianSimulation(pos0, box_len, p, time_step=time_step, bond_width=bond_width, cutoff=cutoff,
+                             seed=s_noise)
+    dt = sim.time_step
+    steps_per_record = max(1, int(round(record_interval / dt)))
+    window_records = max(1, int(round(stable_window / (steps_per_record * dt))))
+    series = {"time": [0.0], "coordination": [0.0], "clusters": [n], "largest_cluster": [1],
+              "largest_fraction": [1.0 / n]}
+    converged = False
+    from .. import _interrupt
+
+    bar = progress_bar(total=None, desc=f"brownian Ψ0={1e3 * p.surface_potential:g} mV", progress=progress,
+                       unit="record")
+    # Ctrl-C is deferred to the safe points between kernel chunks, where it raises
+    # polypack.errors.Interrupted (a KeyboardInterrupt); an interrupted gel is never returned.
+    with _interrupt.deferred():
+        try:
+            while True:
+                _interrupt.check(f"brownian interrupted at t = {sim.time:.3g} s after {sim.steps} steps")
+                if sim.time >= max_time * (1 - 1e-12) or (max_steps is not None and sim.steps >= max_steps):
+                    break
+                k = steps_per_record if max_steps is None else min(steps_per_record, max_steps - sim.steps)
+                sim.run(k)
+                _, sizes = sim.clusters()
+                largest = int(sizes.max())
+                series["time"].append(sim.time)
+                series["coordination"].append(sim.coordination)
+                series["clusters"].append(int(sizes.size))
+                series["largest_cluster"].append(largest)
+                series["largest_fraction"].append(largest / n)
+                bar.update(1)
+                bar.set_postfix_str(f"t={sim.time * 1e3:.2f} ms ({sim.time / tau:.2f} a²/D0), "
+                                    f"clusters={sizes.size}, largest={largest}, C={sim.coordination:.3f}")
+                m = len(series["time"]) - 1
+                if sim.time >= min_time and m >= window_records:
+                    c_now, c_then = series["coordination"][m], series["coordination"][m - window_records]
+                    f_now, f_then = series["largest_fraction"][m], series["largest_fraction"][m - window_records]
+                    if (c_now > 0 and abs(c_now - c_then) <= coordination_tolerance * c_now
+                            and abs(f_now - f_then) <= cluster_tolerance):
+                        converged = True
+                        break
+            _interrupt.check(f"brownian interrupted at t = {sim.time:.3g} s after {sim.steps} steps")
+            residual = sim.relax_constraints()
+        finally:
+            bar.close()
+    wall = time.perf_counter() - t_wall
+    if not converged:
+        warnings.warn(
+            f"brownian: structure not stable within the budget (t = {sim.time:.3g} s, {sim.steps} steps); "
+            "meta['brownian']['converged'] is False", RuntimeWarning, stacklevel=2)
+    gaps = sim.bond_gaps()
+    pos = sim.positions
+    bx = sim.box
+    wrapped = np.mod(pos, bx)
+    bonds = sim.bonds
+    bi, bj = bonds[:, 0], bonds[:, 1]
+    raw = wrapped[bj] - wrapped[bi]
+    shift = -np.round(raw / bx).astype(np.int64)
+    _, sizes = sim.clusters()
+    perc = sim.wrapping_axes()
+    meta = {
+        "generator": "brownian",
+        "seed": seed_record(ss),
+        "brownian": {
+            "parameters": p.to_dict(),
+            "volume_fraction": phi,
+            "time_step": dt,
+            "rms_step": sim.rms_step,
+            "rms_step_debye": sim.rms_step / p.debye_length,
+            "bond_width": sim.bond_width,
+            "final_overlap_residual": residual,
+            "bond_gap_max": float(gaps.max()) if gaps.size else 0.0,
+            "bond_gap_mean": float(gaps.mean()) if gaps.size else 0.0,
+            "bonds_beyond_width": int(np.count_nonzero(gaps > sim.bond_width * (1 + 1e-6))) if gaps.size else 0,
+            "cutoff": (cutoff if cutoff is not None else 2.5 * a),
+            "diffusion_coefficient": p.diffusion_coefficient,
+            "brownian_time": tau,
+            "steps": sim.steps,
+            "neighbour_rebuilds": sim.rebuilds,
+            "simulated_time": sim.time,
+            "wall_time": wall,
+            "converged": converged,
+            "coordination": sim.coordination,
+            "n_bonds": int(bonds.shape[0]),
+            "clusters": int(sizes.size),
+            "largest_cluster": int(sizes.max()),
+            "percolating": [bool(x) for x in perc],
+            "stable_window": stable_window,
+            "coordination_tolerance": coordination_tolerance,
+            "cluster_tolerance": cluster_tolerance,
+            "series": series,
+        },
+        "bonds": {"i": bi.tolist(), "j": bj.tolist(), "shift": shift.tolist()},
+    }
+    out = Packing(wrapped, np.full(n, a), bx, meta=meta)
+    gap = out.min_gap()
+    out.meta["min_gap"] = float(gap)
+    if gap < -OVERLAP_TOLERANCE:
+        raise OverlapError(
+            f"brownian gel has a relative overlap {-gap:.3g} > tolerance {OVERLAP_TOLERANCE:g}"
+        )
+    return out
