@@ -361,7 +361,8 @@ def test_overlapping_start_rejected():
 
 
 def test_pack_accepts_psd_sizeset():
-    psd = pytest.importorskip("polypack.psd")
+    from polypack import psd
+
     s = psd.Bimodal(size_ratio=0.313, volume_ratio=0.333, d_large=1.0).sample(n=600, seed=1)
     pk = pp.pack(s, volume_fraction=0.55, seed=1)
     np.testing.assert_array_equal(pk.radii, s.radii)
