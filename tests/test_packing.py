@@ -141,4 +141,23 @@ def test_min_gap_is_linear_for_large_size_ratio():
     pk = pp.Packing(rng.random((n, 3)) * box, rad, box)
     i, j, d = pairs_within(pk.positions, pk.radii, pk.box, 1.0, 0.0)
     gap, pair = min_relative_gap(pk.positions, pk.radii, pk.box)
-    assert np.isfinite(gap)
+    # independent oracle: scipy's periodic k-d tree for small-small pairs (d < 0.1) plus
+    # all distances from the few large spheres
+    from scipy.spatial import cKDTree
+
+    big = np.flatnonzero(rad > 0.5)
+    small = np.flatnonzero(rad < 0.5)
+    tree = cKDTree(pk.positions[small], boxsize=box)
+    ss = tree.sparse_distance_matrix(tree, 0.1, output_type="coo_matrix")
+    keep = ss.row < ss.col
+    gaps_ss = ss.data[keep] / 0.1 - 1
+    dd = np.abs(pk.positions[big][:, None, :] - pk.positions[None, :, :])
+    dd = np.sqrt(np.sum(np.minimum(dd, box - dd) ** 2, axis=-1))
+    gaps_b = dd / (rad[big][:, None] + rad[None, :]) - 1
+    gaps_b[np.arange(big.size), big] = np.inf
+    ref = min(gaps_ss.min(), gaps_b.min())
+    assert gap == pytest.approx(ref, rel=1e-12, abs=1e-14)
+    # overlapping pairs (d <= r_i + r_j): the same number as the oracle finds
+    n_ss = np.count_nonzero(ss.data[keep] <= 0.1)
+    n_b = np.count_nonzero(gaps_b <= 0) - np.count_nonzero(gaps_b[:, big] <= 0) // 2
+    assert i.size == n_ss + n_b > 0
