@@ -4,6 +4,7 @@ import pytest
 import polypack as pp
 from polypack.neighbors import min_relative_gap, pairs_within
 
+import _oracles as orc
 from conftest import random_polydisperse
 
 
@@ -33,12 +34,15 @@ def test_pairs_within_matches_brute_force(ratio, rng):
     pos, rad = random_polydisperse(rng, 400, ratio, 9.0, phi_target=0.3)
     pos = rng.random((400, 3)) * box
     for a, b in [(1.0, 0.05), (1.2, 0.0), (0.0, 1.5)]:
-        got = pairs_within(pos, rad, box, a, b)
-        ref = pairs_within(pos, rad, box, a, b, method="brute")
-        sg = sorted(zip(got[0].tolist(), got[1].tolist()))
-        sr = sorted(zip(ref[0].tolist(), ref[1].tolist()))
-        assert sg == sr
-        assert len(sg) > 0
+        # the oracle of tests/_oracles.py has its own distance code; distances compared too
+        oi, oj, od = orc.pairs(pos, rad, box, a, b)
+        ref = {(int(x), int(y)): float(z) for x, y, z in zip(oi, oj, od)}
+        for method in ("cells", "brute"):
+            i, j, d = pairs_within(pos, rad, box, a, b, method=method)
+            got = {(int(min(x, y)), int(max(x, y))): float(z) for x, y, z in zip(i, j, d)}
+            assert got.keys() == ref.keys() and len(got) == i.size
+            assert np.allclose([got[k] for k in ref], list(ref.values()), rtol=1e-12, atol=0)
+        assert len(ref) > 0
 
 
 def test_touching_pair_across_boundary():

@@ -142,7 +142,16 @@ def test_plots_return_axes(tmp_path):
                pp.psd.plot_hazen_vs_span(spans=[0.1, 0.5, 0.9]),
                pp.psd.accessible_domain(0.5, [1, 2], [1, 2], max_total=[10**4, 10**5]).plot()):
         assert isinstance(ax, matplotlib.axes.Axes)
+        assert ax.get_xlabel() and ax.get_ylabel()
+    # the curves drawn are the model's grading h(d) and partition function F(d)
+    ax = pp.psd.plot_grading(m, number=True)
+    x, y = ax.lines[0].get_data()
+    np.testing.assert_allclose(y, m.grading(x), rtol=1e-12)
+    x, y = ax.lines[1].get_data()
+    np.testing.assert_allclose(y, m.number_cdf(x), rtol=1e-12)
     ax = s.plot_grading()
+    x, y = ax.lines[-1].get_data()  # the generated set's steps
+    np.testing.assert_allclose(y, s.grading(x), rtol=1e-12)
     ax.figure.savefig(tmp_path / "g.png")
     assert (tmp_path / "g.png").stat().st_size > 1000
     import matplotlib.pyplot as plt

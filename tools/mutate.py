@@ -63,25 +63,29 @@ P = "src/polypack/psd/"
 G = "src/polypack/generate/"
 E = "src/polypack/ensemble/"
 
-T_RDF = ("tests/test_analysis_rdf.py", "tests/test_noncubic.py", "tests/test_error_bars.py")
-T_WIN = ("tests/test_analysis_windows_contacts.py", "tests/test_noncubic.py", "tests/test_error_bars.py")
-T_PORE = ("tests/test_analysis_pores.py", "tests/test_noncubic.py", "tests/test_error_bars.py")
-T_SHAKE = ("tests/test_shake.py", "tests/test_noncubic.py")
-T_PACK = ("tests/test_pack.py", "tests/test_noncubic.py")
-T_PSD = ("tests/test_psd_models.py", "tests/test_psd_descriptors.py", "tests/test_psd_classes.py")
+# the file expected to catch a mutant comes first (pytest -x stops at the first failure)
+T_NC = "tests/test_noncubic.py"
+T_EB = "tests/test_error_bars.py"
+T_RDF = (T_NC, "tests/test_analysis_rdf.py")
+T_WIN = (T_NC, "tests/test_analysis_windows_contacts.py")
+T_PORE = (T_NC, "tests/test_analysis_pores.py")
+T_SHAKE = ("tests/test_shake.py", T_NC)
+T_SHAKE_NC = (T_NC, "tests/test_shake.py")
+T_PACK = ("tests/test_pack.py", T_NC)
+T_PSD = ("tests/test_psd_descriptors.py", "tests/test_psd_models.py", "tests/test_psd_classes.py")
 
 MUTANTS = [
     # ---------------------------------------------------------------- kernels
-    Mutant("k-minimage-sign", K + "cells.py",
-           "    if dx > half:\n        dx -= length\n",
-           "    if dx > half:\n        dx += length\n",
-           ("tests/test_packing.py", "tests/test_analysis_rdf.py"), "wrong sign"),
+    Mutant("k-minimage-half", K + "cells.py",
+           "    half = 0.5 * length\n",
+           "    half = length\n",
+           ("tests/test_packing.py", "tests/test_analysis_rdf.py"), "factor 2"),
     Mutant("k-separation2-box", K + "cells.py",
            "    dy = min_image(pos[j, 1] - pos[i, 1], box[1])\n    dz = min_image(pos[j, 2] - pos[i, 2], box[2])\n"
            "    return dx * dx + dy * dy + dz * dz",
            "    dy = min_image(pos[j, 1] - pos[i, 1], box[1])\n    dz = min_image(pos[j, 2] - pos[i, 2], box[0])\n"
            "    return dx * dx + dy * dy + dz * dz",
-           ("tests/test_packing.py", "tests/test_noncubic.py"), "swapped box length"),
+           (T_NC, "tests/test_packing.py"), "swapped box length"),
     Mutant("k-rdf-fast-ly", K + "analysis.py",
            "                dy = min_image(y[j] - y[i], ly)\n",
            "                dy = min_image(y[j] - y[i], lx)\n",
@@ -97,8 +101,7 @@ MUTANTS = [
     Mutant("k-rdf-bin-offbyone", K + "analysis.py",
            "                b = int(np.floor(xv * inv_h + 1e-9))\n",
            "                b = int(np.floor(xv * inv_h + 1e-9)) + 1\n",
-           ("tests/test_analysis_rdf.py", "tests/test_analysis_kfunction.py", "tests/test_noncubic.py"),
-           "off-by-one"),
+           (T_NC, "tests/test_analysis_rdf.py"), "off-by-one"),
     Mutant("k-window-species", K + "analysis.py",
            "                    out[i, species[j]] += 1\n",
            "                    out[i, species[i]] += 1\n",
@@ -106,7 +109,7 @@ MUTANTS = [
     Mutant("k-window-strict", K + "analysis.py",
            "if j != i and separation2(pos, i, j, box) <= r2:",
            "if j != i and separation2(pos, i, j, box) < r2:",
-           T_WIN, "off-by-one (closed vs open window)"),
+           ("tests/test_analysis_windows_contacts.py", T_NC), "off-by-one (closed vs open window)"),
     Mutant("k-pores-cl1", K + "analysis.py",
            "            cl1 = box[1] / nc1\n",
            "            cl1 = box[0] / nc1\n",
@@ -118,19 +121,19 @@ MUTANTS = [
     Mutant("k-pores-radius-sign", K + "analysis.py",
            "dd = np.sqrt(dx * dx + dy * dy + dz * dz) - sr[s]",
            "dd = np.sqrt(dx * dx + dy * dy + dz * dz) + sr[s]",
-           T_PORE, "wrong sign"),
+           ("tests/test_analysis_pores.py", T_NC), "wrong sign"),
     Mutant("k-shake-overlap-ly", K + "shake.py",
            "        dy -= ly * np.rint(dy / ly)\n        dz -= lz * np.rint(dz / lz)\n        sig = ri + radii[j]\n"
            "        if dx * dx",
            "        dy -= lx * np.rint(dy / lx)\n        dz -= lz * np.rint(dz / lz)\n        sig = ri + radii[j]\n"
            "        if dx * dx",
-           T_SHAKE, "swapped box length"),
+           T_SHAKE_NC, "swapped box length"),
     Mutant("k-shake-wrap-y", K + "shake.py",
            "                    yn = _wrap1(y0 + dya, box[1])\n                    zn = _wrap1(z0 + dza, box[2])\n"
            "                    if use_cells:",
            "                    yn = _wrap1(y0 + dya, box[0])\n                    zn = _wrap1(z0 + dza, box[2])\n"
            "                    if use_cells:",
-           T_SHAKE, "swapped box length"),
+           T_SHAKE_NC, "swapped box length"),
     Mutant("k-shake-random-order", K + "shake.py",
            "                i = int(rng_uniform(rng) * n)\n",
            "                i = int(rng_uniform(rng) * (n - 1))\n",
@@ -147,21 +150,25 @@ MUTANTS = [
            "        t = t if (b > 0.0 and disc >= 0.0) else np.inf  # approaching and hitting\n"
            "        best = min(best, t)\n    return max(best, 0.0)\n\n\n\n",
            T_SHAKE, "wrong sign"),
+    Mutant("k-shake-collision-tau", K + "shake.py",
+           "                tau = bestf if bestf < step else step\n",
+           "                tau = step\n",
+           T_SHAKE, "bound ignored"),
     Mutant("k-edmd-minimage-z", K + "edmd.py",
            "        dz = min_image(x[j, 2] - x[i, 2], box[2])\n",
            "        dz = min_image(x[j, 2] - x[i, 2], box[0])\n",
-           T_PACK, "swapped box length"),
+           (T_NC, "tests/test_pack.py"), "swapped box length"),
     # --------------------------------------------------------------- analyses
     Mutant("a-k-err-sqrt2", A + "kfunction.py",
            "return np.sqrt(2.0 * tot) / dens_t", "return np.sqrt(tot) / dens_t",
-           ("tests/test_analysis_kfunction.py", "tests/test_error_bars.py"), "factor sqrt 2"),
+           (T_EB, "tests/test_analysis_kfunction.py"), "factor sqrt 2"),
     Mutant("a-g-err-sqrt2", A + "rdf.py",
            "rel = np.where(ct > 0, 1.0 / np.sqrt(ct / 2.0), np.nan)",
            "rel = np.where(ct > 0, 1.0 / np.sqrt(ct), np.nan)",
-           ("tests/test_analysis_rdf.py", "tests/test_error_bars.py"), "factor sqrt 2"),
+           (T_EB, "tests/test_analysis_rdf.py"), "factor sqrt 2"),
     Mutant("a-partial-err-diag", A + "rdf.py",
            "unordered = np.where(diag, cp / 2.0, cp)", "unordered = np.where(diag, cp, cp)",
-           ("tests/test_analysis_rdf.py", "tests/test_error_bars.py"), "factor sqrt 2"),
+           (T_EB, "tests/test_analysis_rdf.py"), "factor sqrt 2"),
     Mutant("a-rdf-shell-volume", A + "rdf.py",
            "            vol = 4.0 * np.pi * r**2 * (2.0 * h)\n",
            "            vol = 4.0 * np.pi * r**2 * h\n",
@@ -169,19 +176,19 @@ MUTANTS = [
     Mutant("a-contact-err", A + "rdf.py",
            "sig = np.sqrt(np.maximum(cnt, 1.0)) * g / np.maximum(cnt, 1.0)",
            "sig = np.sqrt(2.0 * np.maximum(cnt, 1.0)) * g / np.maximum(cnt, 1.0)",
-           ("tests/test_analysis_rdf.py", "tests/test_error_bars.py"), "factor sqrt 2"),
+           (T_EB, "tests/test_analysis_rdf.py"), "factor sqrt 2"),
     Mutant("a-window-p-err", A + "windows.py",
            "return np.sqrt((b - 1) / b * np.sum((pj - pj.mean(axis=0)) ** 2, axis=0))",
            "return np.sqrt(1.0 / b * np.sum((pj - pj.mean(axis=0)) ** 2, axis=0))",
-           T_WIN, "wrong factor (jackknife)"),
+           (T_EB, "tests/test_analysis_windows_contacts.py"), "wrong factor (jackknife)"),
     Mutant("a-pores-survival-err", A + "pores.py",
            "        return np.sqrt(s * (1 - s) / nv)\n",
            "        return np.sqrt(s * (1 - s) / (2 * nv))\n",
-           T_PORE, "factor sqrt 2"),
+           (T_EB, "tests/test_analysis_pores.py"), "factor sqrt 2"),
     Mutant("a-pores-default-r0", A + "pores.py",
            'r0 = self.r0 if self.r0 is not None else float(packing.radii.mean())',
            'r0 = self.r0 if self.r0 is not None else float(packing.radii.max())',
-           T_PORE, "wrong reference"),
+           ("tests/test_analysis_pores.py",), "wrong reference"),
     Mutant("a-contacts-z-live", A + "contacts.py",
            '"z_live": 2.0 * int(live.sum()) / n_live if n_live else np.nan,',
            '"z_live": 2.0 * int(live.sum()) / n if n_live else np.nan,',
@@ -192,7 +199,7 @@ MUTANTS = [
            ("tests/test_analysis_rdf.py", "tests/test_analysis_kfunction.py"), "wrong coefficient"),
     Mutant("a-cs-contact", A + "theory.py",
            "return (1.0 - 0.5 * c) / (1.0 - c) ** 3", "return (1.0 - 0.5 * c) / (1.0 - c) ** 2",
-           ("tests/test_analysis_theory.py", "tests/test_analysis_hardsphere.py"), "wrong power"),
+           ("tests/test_analysis_theory.py",), "wrong power"),
     Mutant("a-eq17-printed", A + "theory.py",
            "q = (g2 - 1) / (g1 - 1) if printed else g2 / g1", "q = (g2 - 1) / g1 if printed else g2 / g1",
            ("tests/test_analysis_theory.py",), "dropped term"),
@@ -233,7 +240,7 @@ MUTANTS = [
            ("tests/test_pipeline_options.py",), "option misrouted"),
     Mutant("e-ci-dof", E + "runner.py",
            "t_quantile(cnt - 1)", "t_quantile(cnt)",
-           ("tests/test_ensemble.py", "tests/test_error_bars.py"), "off-by-one (degrees of freedom)"),
+           (T_EB, "tests/test_ensemble.py"), "off-by-one (degrees of freedom)"),
 ]
 
 
