@@ -214,7 +214,7 @@ MUTANTS = [
            T_PSD, "ignores dimension"),
     Mutant("p-sizeset-quantile-side", P + "sizeset.py",
            'k = np.searchsorted(cum, p - 1e-12, side="left")',
-           'k = np.searchsorted(cum, p - 1e-12, side="right")',
+           'k = np.searchsorted(cum, p + 1e-12, side="left")',
            T_PSD, "off-by-one"),
     Mutant("p-hazen-cu", P + "descriptors.py",
            '"Cu": d60 / d10,', '"Cu": d50 / d10,', T_PSD, "wrong index"),
@@ -241,6 +241,23 @@ MUTANTS = [
     Mutant("e-ci-dof", E + "runner.py",
            "t_quantile(cnt - 1)", "t_quantile(cnt)",
            (T_EB, "tests/test_ensemble.py"), "off-by-one (degrees of freedom)"),
+]
+
+
+# round 2 (added as it lands): dimension-aware geometry, mechanics
+MUTANTS += [
+    Mutant("r2-geometry-circle", "src/polypack/geometry.py",
+           "return 4.0 * np.pi if check_dim(dim) == 3 else 2.0 * np.pi",
+           "return 4.0 * np.pi if check_dim(dim) == 3 else np.pi",
+           ("tests/test_dimensions.py",), "factor 2 (2D)"),
+    Mutant("r2-zeta-reference", "src/polypack/mechanics/effective.py",
+           "return g * (9.0 * k + 8.0 * g) / (6.0 * (k + 2.0 * g))",
+           "return g * (9.0 * k + 8.0 * g) / (6.0 * (k + g))",
+           ("tests/test_mechanics_effective.py",), "dropped factor"),
+    Mutant("r2-dilute-sign", "src/polypack/mechanics/effective.py",
+           "        g += ci * (m.shear + z) * (1.0 - (m.shear + z) * _inv(p.shear + z))\n",
+           "        g -= ci * (m.shear + z) * (1.0 - (m.shear + z) * _inv(p.shear + z))\n",
+           ("tests/test_mechanics_effective.py",), "wrong sign"),
 ]
 
 
