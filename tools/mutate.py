@@ -86,9 +86,11 @@ MUTANTS = [
            "    dy = min_image(pos[j, 1] - pos[i, 1], box[1])\n    dz = min_image(pos[j, 2] - pos[i, 2], box[0])\n"
            "    return dx * dx + dy * dy + dz * dz",
            (T_NC, "tests/test_packing.py"), "swapped box length"),
+    # (inside one cell the fast kernel's min_image never wraps: it needs >= 5 cells per axis,
+    # so a swapped length there is an equivalent mutant; the cross-cell sweep is not)
     Mutant("k-rdf-fast-ly", K + "analysis.py",
-           "                dy = min_image(y[j] - y[i], ly)\n",
-           "                dy = min_image(y[j] - y[i], lx)\n",
+           "                    dy = min_image(y[j] - yi, ly)\n",
+           "                    dy = min_image(y[j] - yi, lz)\n",
            T_RDF, "swapped box length"),
     Mutant("k-rdf-fast-cross-lz", K + "analysis.py",
            "                    dz = min_image(z[j] - zi, lz)\n",
