@@ -7,12 +7,8 @@ import pytest
 
 import polypack as pp
 from _analysis_packs import rsa
-
-io = pytest.importorskip("polypack.io")
-if not hasattr(io, "read") or not hasattr(io, "write"):  # pragma: no cover - io is another engineer's
-    pytest.skip("polypack.io.read/write not available yet", allow_module_level=True)
-
-from polypack.cli import main  # noqa: E402
+from polypack import io
+from polypack.cli import main
 
 
 @pytest.fixture(scope="module")

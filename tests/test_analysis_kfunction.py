@@ -66,7 +66,13 @@ def test_accumulate_plot_dict_and_errors():
     for _ in range(3):
         k.compute(poisson(rng, 2000, 10.0, n_species=2), reset=False)
     assert k.n_realizations == 3 and np.all(k.K_err > 0)
-    assert k.plot() is not None and k.plot(centred=False) is not None
+    ax = k.plot()  # L(r) - r, zero for Poisson
+    np.testing.assert_allclose(ax.lines[0].get_ydata(), np.cbrt(3 * k.K / (4 * np.pi)) - k.r, rtol=1e-12)
+    assert ax.get_ylabel() == "L(r) - r" and ax.get_xlabel() == "r"
+    ax = k.plot(centred=False)
+    np.testing.assert_allclose(ax.lines[0].get_ydata(), k.K, rtol=1e-12)
+    assert any(np.allclose(ln.get_ydata(), 4 / 3 * np.pi * k.r**3) for ln in ax.lines)  # Poisson beside it
+    assert {t.get_text() for t in ax.get_legend().get_texts()} >= {"total", "Poisson"}
     d = json.loads(json.dumps(k.to_dict()))
     assert set(d["partial"]) == {"0-0", "0-1", "1-1"}
     with pytest.raises(InvalidInputError, match="half the smallest box"):

@@ -121,8 +121,48 @@ def test_seed_reproducible_accumulate_and_report():
     assert np.all(np.isfinite(a.survival_err))
     d = json.loads(json.dumps(a.to_dict()))
     assert {"seed", "normalized", "r0"} <= set(d["fit"]) and d["void_fraction"] > 0
-    assert a.plot() is not None
+    ax = a.plot()
+    np.testing.assert_allclose(ax.lines[0].get_ydata(), a.survival, rtol=1e-12)
+    np.testing.assert_allclose(ax.lines[0].get_xdata(), a.r / a.r0_used, rtol=1e-12)
+    assert len(ax.lines) == 3  # measured and both DOH fits
+    assert ax.get_xlabel() == "$r / r_0$" and ax.get_ylabel() == "$P(r_P > r)$"
     with pytest.raises(InvalidInputError, match="n_points"):
         pp.analysis.PoreSizes(n_points=10)
     with pytest.raises(InvalidInputError, match="at least 1 spheres"):
         pp.analysis.PoreSizes(n_points=1000).compute(pp.Packing(np.zeros((0, 3)), np.zeros(0), 5.0))
+
+
+def test_doh_fit_through_compute_on_a_boolean_pack():
+    """DOH fits computed by PoreSizes.compute on a real (boolean-model) pack agree with the
+    fits of the exact pore-size distribution of the model, found here by a different
+    optimiser (Nelder-Mead on the squared residuals).  r0 defaults to the number-mean
+    radius; the fitted a and b are in units of r0, so doubling r0 halves both."""
+    from scipy.optimize import minimize
+
+    rng = np.random.default_rng(21)
+    counts, radii, L = (300, 1500), (0.6, 0.25), 10.0
+    pk = _boolean(rng, counts, radii, L)
+    p = pp.analysis.PoreSizes(n_points=200_000, seed=4).compute(pk)
+    r0 = float(pk.radii.mean())
+    assert p.r0_used == pytest.approx(r0, rel=1e-12)
+    f = p.fit
+    assert f["r0"] == pytest.approx(r0, rel=1e-12)
+    # exact survival of the model, E_V(r) / E_V(0), on the same grid
+    V = L**3
+    ev = np.prod([(1 - 4 / 3 * np.pi * (p.r + a) ** 3 / V) ** c for c, a in zip(counts, radii)], axis=0)
+    surv = ev / ev[0]
+    # 2e5 points: the measured curve is within ~3 binomial errors (< 0.005) of it
+    assert np.max(np.abs(p.survival - surv)) < 4 * np.max(p.survival_err) + 1e-3
+    x = p.r / r0
+    for name, fn in (("seed", doh_seed), ("normalized", doh_normalized)):
+        res = minimize(lambda q: np.sum((surv - fn(x, q[0], q[1])) ** 2), x0=[0.5, 0.1], method="Nelder-Mead",
+                       options={"xatol": 1e-7, "fatol": 1e-12, "maxiter": 4000})
+        a_ref, b_ref = abs(res.x[0]), res.x[1]
+        # measured-vs-exact curve differences of ~0.002 move a and b by a few 1e-3
+        assert f[name]["a"] == pytest.approx(a_ref, abs=0.01 * a_ref + 4 * f[name]["a_err"]), name
+        assert f[name]["b"] == pytest.approx(b_ref, abs=0.01 * abs(a_ref) + 4 * f[name]["b_err"]), name
+    assert f["seed"]["residual_rms"] < f["normalized"]["residual_rms"]  # mode at 0: the printed form fits better
+    q = pp.analysis.PoreSizes(n_points=200_000, seed=4, r0=2 * r0).compute(pk).fit
+    for name in ("seed", "normalized"):
+        assert q[name]["a"] == pytest.approx(0.5 * f[name]["a"], rel=1e-4)
+        assert q[name]["b"] == pytest.approx(0.5 * f[name]["b"], rel=1e-4, abs=1e-6)

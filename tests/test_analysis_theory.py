@@ -75,6 +75,25 @@ def test_extrapolation_eq17_is_consistent_with_willis():
     assert not np.allclose(printed, th.willis(r, a, 0.6))
 
 
+def test_eq17_printed_variant_by_hand():
+    """Eq. (17) as printed: g(r, c2) - 1 = [g(r, c1) - 1] [g_c^W(c2) - 1] / [g_c^W(c1) - 1].
+    Willis' amplitude 0.8006 (8c - 1)/c: c1 = 0.3 gives 0.8006 * 1.4 / 0.3 = 3.736133...,
+    c2 = 0.5 gives 0.8006 * 3 / 0.5 = 4.8036, so the factor is 3.8036 / 2.736133... =
+    1.390137...; the ratio form uses 4.8036 / 3.736133... = 1.285714... (= 9/7 exactly)."""
+    r = np.array([1.9, 2.0, 2.5, 3.0])
+    g = np.array([0.0, 2.2, 0.9, 1.1])
+    printed = th.extrapolate_rdf(r, g, 1.0, 0.3, 0.5, amplitude="willis", printed=True)
+    q = 3.8036 / (0.8006 * 1.4 / 0.3 - 1.0)
+    assert q == pytest.approx(1.390137, abs=1e-6)
+    np.testing.assert_allclose(printed, [0.0, 1 + 1.2 * q, 1 - 0.1 * q, 1 + 0.1 * q], rtol=1e-12)
+    ratio = th.extrapolate_rdf(r, g, 1.0, 0.3, 0.5, amplitude="willis")
+    np.testing.assert_allclose(ratio, [0.0, 1 + 1.2 * 9 / 7, 1 - 0.1 * 9 / 7, 1 + 0.1 * 9 / 7], rtol=1e-12)
+    # Kanaun's amplitude (Percus-Yevick contact value minus 1): (1 + c/2)/(1 - c)^2 - 1
+    # = 1.15 / 0.49 - 1 = 1.346939 at 0.3 and 1.25 / 0.25 - 1 = 4 at 0.5
+    k = th.extrapolate_rdf(r, g, 1.0, 0.3, 0.5, printed=True)
+    assert k[1] == pytest.approx(1 + 1.2 * 3.0 / (1.15 / 0.49 - 2.0), rel=1e-12)
+
+
 def test_peak_positions():
     u = th.peak_positions_unimodal()
     assert u["second"] == pytest.approx(3.4641, abs=1e-4) and u["gap"] == pytest.approx(2.866, abs=1e-3)

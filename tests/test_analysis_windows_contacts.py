@@ -19,7 +19,11 @@ def test_window_counts_poisson_are_poisson():
     w = pp.analysis.WindowCounts(window_radius=5.0).compute(pk)
     q = 4 / 3 * np.pi * (5.0 * a) ** 3 / L**3
     pmf = stats.binom.pmf(w.n_h, n - 1, q)
-    assert w.mean == pytest.approx((n - 1) * q, rel=0.03)
+    # the window counts add up to twice the number U of unordered pairs closer than 5a, and
+    # U ~ Binomial(N (N-1)/2, q) (pair indicators sharing a point are uncorrelated on the
+    # torus), so the mean count 2U/N has standard error sqrt(2 (N-1) q / N) = 0.09: 4 of them
+    se = np.sqrt(2 * (n - 1) * q * (1 - q) / n)
+    assert abs(w.mean - (n - 1) * q) < 4 * se
     assert np.all(np.abs(w.p - pmf) < 5 * np.sqrt(pmf * (1 - pmf) / n) + 1e-4)
 
 
@@ -32,7 +36,9 @@ def test_window_counts_lattice_exact():
     assert w.p[-1] == 1.0 and w.n_h[-1] == 12 + 6 + 1  # shells at 0.707 and 1.0, plus itself
     assert w.partial[(0, 0)][-1] == 1.0
     assert json.loads(json.dumps(w.to_dict()))["mean"] == 19
-    assert w.plot() is not None
+    ax = w.plot()
+    np.testing.assert_array_equal(ax.lines[0].get_ydata(), w.p)
+    assert ax.get_xlabel() == "$n_h$" and ax.get_ylabel() == "$p(n_h)$"
 
 
 def test_window_species_partials_and_errors():
@@ -61,7 +67,10 @@ def test_shell_count_I_of_lattices(kind, first):
         assert I[k] == first and I[:k].sum() == 0
     s = pp.analysis.ShellCount(r_max=2.0, dr=0.01).compute(pk)
     assert s.cumulative[int(np.floor(nn / 0.01 + 1e-9))] == first
-    assert s.plot(a=pk.radii[0]) is not None
+    ax = s.plot(a=pk.radii[0])
+    np.testing.assert_allclose(ax.lines[0].get_xdata(), s.r / pk.radii[0], rtol=1e-12)
+    np.testing.assert_array_equal(ax.lines[0].get_ydata(), s.I)
+    assert ax.get_xlabel() == "r / a" and ax.get_ylabel() == "I(r)"
 
 
 @pytest.mark.parametrize("kind, z", [("sc", 6), ("bcc", 8), ("fcc", 12)])
@@ -105,11 +114,44 @@ def test_contacts_per_species_and_rattler_cascade():
 
 
 def test_contacts_accumulate():
+    packs = [rsa(np.random.default_rng(s), 300, 8.0) for s in range(3)]
     c = pp.analysis.Contacts(tolerance=0.05)
-    for s in range(3):
-        c.compute(rsa(np.random.default_rng(s), 300, 8.0), reset=False)
-    assert c.n_realizations == 3 and c.coordination_err >= 0
-    assert c.plot() is not None
+    for pk in packs:
+        c.compute(pk, reset=False)
+    single = [pp.analysis.Contacts(tolerance=0.05).compute(pk) for pk in packs]
+    z = [s.coordination for s in single]
+    # each from its own contact list: 2 M / N
+    assert z == [2 * len(s.pairs) / 300 for s in single]
+    assert c.n_realizations == 3
+    assert c.coordination == pytest.approx(np.mean(z), rel=1e-12)
+    assert c.coordination_err == pytest.approx(np.std(z, ddof=1) / np.sqrt(3), rel=1e-12)
+    assert c.coordination_err > 0
+    assert np.array_equal(c.per_sphere, single[-1].per_sphere)  # lists are of the last realization
+    ax = c.plot()
+    heights = [b.get_height() for b in ax.patches]
+    h = np.bincount(single[-1].per_sphere)
+    assert np.allclose(heights, h / h.sum())
+    assert ax.get_xlabel() and ax.get_ylabel()
+
+
+def test_coordination_without_rattlers():
+    """Simple cubic lattice at contact (6 contacts each) plus small spheres in some cube
+    centres, too small to touch the corners: they are rattlers, and without them the
+    coordination is exactly the lattice's 6; two small ones touching each other stay
+    rattlers (1 contact < 4)."""
+    cells = 5
+    g = np.arange(cells) * 2.0
+    lat = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
+    small = np.array([[1.0, 1.0, 1.0], [5.0, 5.0, 5.0], [5.6, 5.0, 5.0]])  # last two touch
+    pos = np.vstack([lat, small])
+    rad = np.r_[np.ones(len(lat)), 0.3, 0.3, 0.3]
+    pk = pp.Packing(pos, rad, cells * 2.0)
+    c = pp.analysis.Contacts(tolerance=1e-6).compute(pk)
+    n_lat = len(lat)
+    assert c.coordination == pytest.approx((6 * n_lat + 2) / (n_lat + 3), rel=1e-12)
+    assert np.array_equal(np.flatnonzero(c.rattlers), [n_lat, n_lat + 1, n_lat + 2])
+    assert c.rattler_fraction == pytest.approx(3 / (n_lat + 3), rel=1e-12)
+    assert c.coordination_without_rattlers == 6.0
 
 
 @pytest.mark.parametrize("reference", ["species", "sphere"])

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from polypack import io
 from polypack._cli.pack_commands import sizes_from_options
 from polypack.cli import main
 
@@ -14,9 +15,6 @@ def test_bimodal_counts_seed000():
 
 
 def test_cli_pack_writes_file(tmp_path, capsys):
-    io = pytest.importorskip("polypack.io")
-    if not hasattr(io, "write"):
-        pytest.skip("polypack.io.write not available yet")
     out = tmp_path / "p.gsd"
     main(["pack", "--n", "200", "--radius", "0.5", "--volume-fraction", "0.5", "--seed", "3", "-o", str(out)])
     pk = io.read(out)

@@ -4,6 +4,7 @@ import pytest
 import polypack as pp
 from polypack.neighbors import min_relative_gap, pairs_within
 
+import _oracles as orc
 from conftest import random_polydisperse
 
 
@@ -33,12 +34,15 @@ def test_pairs_within_matches_brute_force(ratio, rng):
     pos, rad = random_polydisperse(rng, 400, ratio, 9.0, phi_target=0.3)
     pos = rng.random((400, 3)) * box
     for a, b in [(1.0, 0.05), (1.2, 0.0), (0.0, 1.5)]:
-        got = pairs_within(pos, rad, box, a, b)
-        ref = pairs_within(pos, rad, box, a, b, method="brute")
-        sg = sorted(zip(got[0].tolist(), got[1].tolist()))
-        sr = sorted(zip(ref[0].tolist(), ref[1].tolist()))
-        assert sg == sr
-        assert len(sg) > 0
+        # the oracle of tests/_oracles.py has its own distance code; distances compared too
+        oi, oj, od = orc.pairs(pos, rad, box, a, b)
+        ref = {(int(x), int(y)): float(z) for x, y, z in zip(oi, oj, od)}
+        for method in ("cells", "brute"):
+            i, j, d = pairs_within(pos, rad, box, a, b, method=method)
+            got = {(int(min(x, y)), int(max(x, y))): float(z) for x, y, z in zip(i, j, d)}
+            assert got.keys() == ref.keys() and len(got) == i.size
+            assert np.allclose([got[k] for k in ref], list(ref.values()), rtol=1e-12, atol=0)
+        assert len(ref) > 0
 
 
 def test_touching_pair_across_boundary():
@@ -141,4 +145,23 @@ def test_min_gap_is_linear_for_large_size_ratio():
     pk = pp.Packing(rng.random((n, 3)) * box, rad, box)
     i, j, d = pairs_within(pk.positions, pk.radii, pk.box, 1.0, 0.0)
     gap, pair = min_relative_gap(pk.positions, pk.radii, pk.box)
-    assert np.isfinite(gap)
+    # independent oracle: scipy's periodic k-d tree for small-small pairs (d < 0.1) plus
+    # all distances from the few large spheres
+    from scipy.spatial import cKDTree
+
+    big = np.flatnonzero(rad > 0.5)
+    small = np.flatnonzero(rad < 0.5)
+    tree = cKDTree(pk.positions[small], boxsize=box)
+    ss = tree.sparse_distance_matrix(tree, 0.1, output_type="coo_matrix")
+    keep = ss.row < ss.col
+    gaps_ss = ss.data[keep] / 0.1 - 1
+    dd = np.abs(pk.positions[big][:, None, :] - pk.positions[None, :, :])
+    dd = np.sqrt(np.sum(np.minimum(dd, box - dd) ** 2, axis=-1))
+    gaps_b = dd / (rad[big][:, None] + rad[None, :]) - 1
+    gaps_b[np.arange(big.size), big] = np.inf
+    ref = min(gaps_ss.min(), gaps_b.min())
+    assert gap == pytest.approx(ref, rel=1e-12, abs=1e-14)
+    # overlapping pairs (d <= r_i + r_j): the same number as the oracle finds
+    n_ss = np.count_nonzero(ss.data[keep] <= 0.1)
+    n_b = np.count_nonzero(gaps_b <= 0) - np.count_nonzero(gaps_b[:, big] <= 0) // 2
+    assert i.size == n_ss + n_b > 0

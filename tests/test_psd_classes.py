@@ -38,12 +38,18 @@ def test_counts_follow_eqs_7_to_9(dim):
     m = pp.psd.CumulativeBeta(a=1, b=2, span=0.6)
     b = pp.psd.class_bounds(m, 6, "geometric")
     fv = pp.psd.class_volume_fractions(m, b)
-    # Eq. (7) with d_m the median of the class law uniform by volume (f ∝ d^-dim)
+    # Eq. (7) with d_m the median (by number) of the class law uniform by volume, whose number
+    # density is f(d) ∝ d^-dim on [lo, hi]: found here by quadrature and root finding
+    from scipy.integrate import quad
+    from scipy.optimize import brentq
+
     lo, hi = b[:-1], b[1:]
-    if dim == 2:
-        dm = hi * lo / (hi + 0.5 * (lo - hi))  # Eq. (4) at y = 1/2
-    else:
-        dm = lo / np.sqrt(1 - 0.5 * (1 - (lo / hi) ** 2))
+
+    def median(l, h):
+        mass = quad(lambda d: d**-dim, l, h)[0]
+        return brentq(lambda x: quad(lambda d: d**-dim, l, x)[0] - 0.5 * mass, l, h, xtol=1e-14, rtol=1e-14)
+
+    dm = np.array([median(lo_k, hi_k) for lo_k, hi_k in zip(lo, hi)])
     n = fv / dm**dim
     first = np.floor(10 / n.min() * n + 1e-9).astype(int)  # Eq. (8)
     cc = pp.psd.class_counts(m, 6, "geometric", min_per_class=10, min_total=1, dim=dim)

@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
+import _oracles as orc
 import polypack as pp
 from polypack.errors import InvalidInputError, OverlapError
 from polypack.generate.shake import shake
-from polypack.neighbors import pairs_within
 
 METHODS = ["paper", "collision", "metropolis"]
 
@@ -66,9 +66,8 @@ def packs():
 
 
 def brute_min_gap(pk):
-    """Oracle: minimum relative gap over all pairs by O(N^2) minimum image."""
-    i, j, d = pairs_within(pk.positions, pk.radii, pk.box, a=1.2, b=0.0, method="brute")
-    return float(np.min(d / (pk.radii[i] + pk.radii[j]) - 1.0))
+    """Oracle: minimum relative gap over all pairs, O(N^2) with the test's own distance code."""
+    return orc.min_gap(pk.positions, pk.radii, pk.box)
 
 
 @pytest.mark.parametrize("method", METHODS)
@@ -110,16 +109,23 @@ def test_lattice_acceptance_matches_geometry():
 
 
 def test_touching_pair_acceptance_exact():
-    """Two spheres touching through the periodic boundary (minimum image), one sequential
-    sweep with a tiny window: sphere 0 is rejected iff it moves towards sphere 1 (prob 1/2);
-    sphere 1 then is rejected with prob 1/2 if 0 stayed, and with prob 1/4 if 0 opened a gap
-    |dx_0| (uniform-ball x-components): overall acceptance (1/2 + 5/8) / 2 = 9/16."""
-    pos = np.array([[0.5, 5.0, 5.0], [18.5, 5.0, 5.0]])
-    pk = pp.Packing(pos, [1.0, 1.0], 20.0)
-    acc = [shake(pk, global_shakes=1, shake_radius=1e-3, method="metropolis", order="sequential", seed=s,
-                 monitor_every=0).meta["shake"]["acceptance_rate"][0][0] for s in range(400)]
-    # standard error 0.5 / sqrt(800) = 0.018
-    assert np.mean(acc) == pytest.approx(9.0 / 16.0, abs=0.055)
+    """Pairs touching through the periodic boundary (minimum image), one sequential sweep
+    with a tiny window: the first sphere A of a pair is rejected iff it moves towards B
+    (prob 1/2); B, visited after A, is rejected with prob 1/2 if A stayed and with prob
+    1/4 if A opened a gap |dx_A| (uniform-ball x-components), so B is accepted with
+    prob 5/8.  2500 independent pairs (A's are species 0 and come first in the visiting
+    order, B's are species 1): binomial standard error 0.5 / sqrt(2500) = 0.01 per
+    species; 4 of them (0.04) separate 5/8 from the 1/2 that updating both spheres from
+    the old positions (a simultaneous-update bug) would give."""
+    yz = (np.stack(np.meshgrid(np.arange(50), np.arange(50), indexing="ij"), -1).reshape(-1, 2) + 0.5) * 3.0
+    a = np.column_stack([np.full(len(yz), 0.5), yz])
+    b = np.column_stack([np.full(len(yz), 18.5), yz])
+    m = len(yz)
+    pk = pp.Packing(np.vstack([a, b]), np.ones(2 * m), [20.0, 150.0, 150.0], species=np.r_[np.zeros(m), np.ones(m)])
+    acc = shake(pk, global_shakes=1, shake_radius=1e-3, method="metropolis", order="sequential", seed=1,
+                monitor_every=0).meta["shake"]["acceptance_rate"][0]
+    assert acc[0] == pytest.approx(0.5, abs=0.04)
+    assert acc[1] == pytest.approx(5.0 / 8.0, abs=0.04)
 
 
 def test_free_flight_analytic():
@@ -143,13 +149,17 @@ def test_free_flight_analytic():
 
 
 def test_collision_amplitude_bounded_by_free_flight():
-    """Collision-limited moves never pass the first contact: a sphere between two close
-    neighbours on a line can only move by less than its free gap along the line."""
-    pk = simple_cubic(0.5, n1=4)
-    out = shake(pk, global_shakes=20, method="collision", shake_radius=0.3, seed=2)
-    assert out.min_gap() >= 0.0
-    md = np.array(out.meta["shake"]["mean_displacement"], dtype=float)
-    assert np.all(md < 0.3)  # below the window
+    """Collision-limited moves (Eq. (9)) stop short of the first contact: every trial is
+    accepted (a move beyond the contact would be rejected by the exact overlap test), and
+    the amplitude, uniform in [0, min(free flight, window)], averages well below the
+    half window it would average if it ignored the free flight."""
+    pk = fcc(0.6, n1=3)  # gaps ~0.07 radius, window 0.3 radius
+    out = shake(pk, global_shakes=20, method="collision", shake_radius=0.3, seed=2, monitor_every=0)
+    assert brute_min_gap(out) >= 0.0
+    sh = out.meta["shake"]
+    assert sh["accepted"] >= sh["trials"] - 2  # amp = 0 or an exact-test fallback at most
+    md = np.array(sh["mean_displacement"], dtype=float)
+    assert np.mean(md) < 0.5 * (0.3 / 2)
 
 
 def test_reproducible_for_a_seed(packs):
@@ -192,12 +202,21 @@ def test_metropolis_adaptation_then_fixed():
 def test_seed_adaptation_tracks_free_flight(method):
     """The seed's rule (grow when the free flight exceeds the window, shrink otherwise)
     drives R_sh to the median free flight: in the end about half of the visits grow it."""
-    pk = fcc(0.55, n1=3)
-    out = shake(pk, global_shakes=30, method=method, adaptive=True, shake_radius=0.005, seed=3)
+    pk = fcc(0.55, n1=4)
+    out = shake(pk, global_shakes=60, method=method, adaptive=True, shake_radius=0.005, seed=3, monitor_every=0)
     sh = out.meta["shake"]
     final = sh["final_shake_radius"][0]
     assert 0.005 < final <= sh["skin"]
-    assert out.min_gap() >= 0.0
+    assert brute_min_gap(out) >= 0.0
+    # n_grow - n_shrink = log(R_end / R_start) / log(1 + f) exactly (no clipping here), so once
+    # R_sh has settled, the fraction of grown visits over the last 30 shakes x 256 visits is
+    # 1/2 within |log(R_30 / R_60)| / (2 * 7680 * log 1.05) < 0.01 plus the exact count
+    grown = np.array(sh["grown_fraction"], dtype=float)[30:, 0]
+    hist = np.array(sh["shake_radius_history"])[:, 0]
+    n_visits = 30 * pk.n
+    expect = 0.5 + math.log(hist[-1] / hist[29]) / (2 * n_visits * math.log(1.05))
+    assert grown.mean() == pytest.approx(expect, abs=1.0 / n_visits + 1e-12)
+    assert abs(grown.mean() - 0.5) < 0.05  # a shrink by (1 + 2 f) instead would settle at 0.66
 
 
 def test_monitor_and_callback():
@@ -307,13 +326,38 @@ def test_collision_best_of_directions_moves_farther():
 
 
 def test_adaptive_size_ratio_1_10(packs):
+    """Per-species adaptation in a 1:10 pack: the large spheres' R_sh settles where about
+    half of their visits see a free flight longer than the window; the small ones, in a
+    dilute fluid of their own (free flights longer than any window the list allows), grow
+    theirs to the cap, half the Verlet skin, and stay there."""
     pk = packs["bi"]
     for method in ("paper", "collision"):
-        out = shake(pk, global_shakes=5, method=method, adaptive=True, seed=8)
+        out = shake(pk, global_shakes=30, method=method, adaptive=True, seed=8, monitor_every=0)
         sh = out.meta["shake"]
         assert brute_min_gap(out) >= 0.0
         assert all(0 < r <= sh["skin"] for r in sh["final_shake_radius"])
-        assert sh["final_shake_radius"] != sh["shake_radius"]
+        grown = np.array(sh["grown_fraction"], dtype=float)[10:]
+        # 20 shakes x 8 large spheres = 160 visits; the count identity of
+        # test_seed_adaptation_tracks_free_flight bounds the deviation from 1/2 by
+        # |log(R_sh change)| / (2 * 160 * log 1.05), < 0.09 for a change by a factor 4
+        assert abs(grown[:, 0].mean() - 0.5) < 0.1, (method, grown[:, 0].mean())
+        assert sh["final_shake_radius"][1] == pytest.approx(0.5 * sh["skin"], rel=1e-12)
+        assert grown[:, 1].mean() > 0.9
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_random_order_reaches_every_sphere(method):
+    """order="random" draws N spheres uniformly per global shake: in a dilute lattice where
+    every move is accepted, each sphere is missed by all 25 shakes with prob e^-25, so every
+    sphere moves; the visits per species follow the species counts."""
+    pk = simple_cubic(0.05, n1=5)
+    pk = pk.replace(species=(np.arange(pk.n) % 5 == 0).astype(int))
+    out = shake(pk, global_shakes=25, method=method, order="random", shake_radius=0.05, seed=6, monitor_every=0)
+    moved = orc.distance_matrix(np.vstack([out.positions, pk.positions]), pk.box)[np.arange(pk.n), pk.n + np.arange(pk.n)]
+    assert np.all(moved > 0), np.flatnonzero(moved == 0)
+    seq = shake(pk, global_shakes=1, method=method, order="sequential", shake_radius=0.05, seed=6, monitor_every=0)
+    moved = orc.distance_matrix(np.vstack([seq.positions, pk.positions]), pk.box)[np.arange(pk.n), pk.n + np.arange(pk.n)]
+    assert np.all(moved > 0)  # one sequential sweep visits every sphere once
 
 
 def test_result_independent_of_skin(packs):

@@ -113,18 +113,12 @@ def test_load_study_file_errors(tmp_path):
 
 @pytest.mark.parametrize("name", ["bimodal_propellant.toml", "cb_grading.toml"])
 def test_bundled_examples_validate(name):
-    path = EXAMPLES / name
-    if not path.exists():
-        pytest.skip(f"{name} not bundled yet")
-    st = load_study(path)
+    st = load_study(EXAMPLES / name)
     assert st.realizations >= 1
 
 
 def test_bimodal_example_is_seed_000():
-    path = EXAMPLES / "bimodal_propellant.toml"
-    if not path.exists():
-        pytest.skip("not bundled yet")
-    d = load_study(path).data
+    d = load_study(EXAMPLES / "bimodal_propellant.toml").data
     assert d["psd"]["model"] == "bimodal"
     assert (d["psd"]["size_ratio"], d["psd"]["volume_ratio"]) == (0.313, 0.333)
     assert d["protocol"]["kind"] == "scrm" and d["protocol"]["volume_fraction"] == 0.6

@@ -7,7 +7,7 @@ Layout of the output folder::
     DIR/realizations/r0000.gsd   one pack per realization (GSD, double precision)
     DIR/realizations/r0000.json  its record: seed, protocol statistics, descriptors, sha256 of the GSD
     DIR/summary.csv              one row per realization
-    DIR/ensemble/curves.json     ensemble-averaged curves, mean ± 1.96 standard errors
+    DIR/ensemble/curves.json     ensemble-averaged curves, mean ± t(0.975, P-1) standard errors
     DIR/ensemble/<analysis>.csv  the same as tables; DIR/ensemble/<analysis>.png plots
     DIR/ensemble/scalars.json    mean and standard error of every scalar descriptor
 
@@ -39,7 +39,22 @@ from .stages import check_available, child_seed_records, preflight, realize
 
 __all__ = ["run_study", "EnsembleResult", "run_realization", "verify_realization", "aggregate", "regenerate"]
 
-CI_FACTOR = 1.96
+CI_LEVEL = 0.95
+
+
+def t_quantile(dof):
+    """Two-sided 95 % Student-t factor ``t(0.975, dof)`` (NaN where ``dof < 1``).
+
+    The band ``mean ± t SE`` over ``P`` realizations covers the true mean 95 % of the
+    time for Gaussian scatter with ``dof = P - 1``; ``1.96 SE`` would cover only about
+    81 % at ``P = 3`` (``t(0.975, 2) = 4.303``).
+    """
+    from scipy.stats import t as student_t
+
+    d = np.asarray(dof, dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        q = student_t.ppf(0.5 + 0.5 * CI_LEVEL, np.where(d >= 1, d, np.nan))
+    return q if q.ndim else float(q)
 
 
 def sha256_file(path) -> str:
@@ -208,7 +223,7 @@ class EnsembleResult:
         ]
         if vf.size:
             se = vf.std(ddof=1) / math.sqrt(vf.size) if vf.size > 1 else float("nan")
-            lines.append(f"  volume fraction {vf.mean():.5f} ± {CI_FACTOR * se:.2g} (95 % CI)")
+            lines.append(f"  volume fraction {vf.mean():.5f} ± {t_quantile(vf.size - 1) * se:.2g} (95 % CI)")
         if self.stale:
             lines.append(f"  {len(self.stale)} saved realization(s) were made by other polypack code and were "
                          "recomputed")
@@ -425,7 +440,11 @@ def _as_float(v):
 
 
 def ensemble_curves(records) -> dict:
-    """Mean, standard error and 95 % band (mean ± 1.96 SE) of every curve across realizations."""
+    """Mean, standard error and 95 % band (mean ± t(0.975, P-1) SE) of every curve across realizations.
+
+    ``P`` is the number of realizations with a finite value at that point (Student t quantile,
+    see :func:`t_quantile`).
+    """
     out = {}
     names = sorted({k for r in records for k in r.get("analysis", {})})
     for name in names:
@@ -472,11 +491,12 @@ def ensemble_curves(records) -> dict:
                     mean = np.nanmean(np.where(np.isfinite(y), y, np.nan), axis=0) if len(sets) else y[0]
                     sd = np.nanstd(y, axis=0, ddof=1) if len(sets) > 1 else np.full(length, np.nan)
                     se = sd / np.sqrt(np.maximum(cnt, 1))
+                    half = t_quantile(cnt - 1) * se
                 entry["curves"][c] = {
                     "mean": _nan_none(mean),
                     "se": _nan_none(se),
-                    "lo": _nan_none(mean - CI_FACTOR * se),
-                    "hi": _nan_none(mean + CI_FACTOR * se),
+                    "lo": _nan_none(mean - half),
+                    "hi": _nan_none(mean + half),
                 }
             out[key] = entry
     return out
@@ -541,8 +561,8 @@ def aggregate(out, study: Study, records) -> dict:
     excluded = [{"index": r["index"], "status": realization_status(r)} for r in records if not is_complete(r)]
     curves = ensemble_curves(complete) if complete else {}
     with atomic_open(ens / "curves.json", "w", encoding="utf-8") as fh:
-        json.dump({"ci_factor": CI_FACTOR, "n_realizations": len(complete), "excluded": excluded,
-                   "analyses": curves}, fh)
+        json.dump({"ci_level": CI_LEVEL, "ci_factor": t_quantile(len(complete) - 1) if len(complete) > 1 else None,
+                   "n_realizations": len(complete), "excluded": excluded, "analyses": curves}, fh)
     scalars = ensemble_scalars(complete) if complete else {}
     if excluded:
         scalars["excluded"] = excluded
@@ -623,7 +643,7 @@ def plot_curves(curves: dict, folder, fmt="png", title=""):
         base = name.rstrip("0123456789")
         ax.set_xlabel(entry["x_name"])
         ax.set_ylabel(_YLABEL.get(base, name))
-        ax.set_title(f"{title}: {name}, mean ± 1.96 SE over {entry['n_realizations']} realization(s)", fontsize=9)
+        ax.set_title(f"{title}: {name}, mean and 95 % t band over {entry['n_realizations']} realization(s)", fontsize=9)
         ax.legend(fontsize=7)
         fig.tight_layout()
         target = Path(folder) / f"{name}.{fmt}"

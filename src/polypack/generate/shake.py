@@ -185,6 +185,9 @@ def shake(
         ``order``, ``skin``, per global shake and species ``acceptance_rate``
         (accepted / trials), ``moved_fraction`` (visits with a move / visits),
         ``mean_displacement`` (mean accepted ``|Δx| / a_i``), ``shake_radius_history``;
+        ``grown_fraction`` (per shake and species, while the seed's adaptation runs: the
+        fraction of visits whose free flight exceeded the window, which the adaptation
+        drives to 1/2; ``None`` otherwise);
         ``net_displacement``: rows ``[m, per-species rms displacement since the start
         over a_i]`` (after every shake when monitoring, else at the end);
         ``monitor`` (``global_shake`` and ``contact_value`` per pair ``"k-m"``),
@@ -353,7 +356,7 @@ def shake(
 
     rsh0 = rsh.copy()
     hist = {"acceptance_rate": [], "moved_fraction": [], "mean_displacement": [], "net_displacement": [],
-            "shake_radius_history": []}
+            "shake_radius_history": [], "grown_fraction": []}
     total_trials = 0.0
     total_accepted = 0.0
     kernel_time = 0.0
@@ -430,9 +433,11 @@ def shake(
                         acc = st[:, kern.ST_ACCEPTED] / st[:, kern.ST_TRIALS]
                         moved = st[:, kern.ST_MOVED] / st[:, kern.ST_VISITS]
                         mdisp = st[:, kern.ST_DISP] / st[:, kern.ST_ACCEPTED]
+                        grown = st[:, kern.ST_GROW] / st[:, kern.ST_VISITS]
                     hist["acceptance_rate"].append(nanlist(acc))
                     hist["moved_fraction"].append(nanlist(moved))
                     hist["mean_displacement"].append(nanlist(mdisp))
+                    hist["grown_fraction"].append(nanlist(grown) if adapting and method != "metropolis" else None)
                     hist["shake_radius_history"].append([float(x) for x in rsh])
                 with np.errstate(invalid="ignore", divide="ignore"):
                     netd = np.sqrt(np.bincount(species, weights=(net * net).sum(axis=1) / r2, minlength=ns) / counts)

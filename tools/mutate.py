@@ -1,0 +1,388 @@
+#!/usr/bin/env python
+"""Mutation testing of polypack with a hand-written list of plausible one-line bugs.
+
+Each mutant replaces one exact piece of source text (a wrong sign, a factor 2, a
+swapped box length, an off-by-one, ...) in a copy of the tree; the tests that
+should notice it run on the copy (``PYTHONPATH=<copy>/src``, ``pytest -x``, with a
+timeout) and the mutant is *caught* when they fail.  A table and the caught
+fraction are printed; ``--json`` writes the results.
+
+Why hand-written and not mutmut / cosmic-ray: those tools rewrite the source of
+every module they import, which defeats numba's on-disk cache (every mutant then
+recompiles all kernels, minutes each) and they mutate the numba kernels into code
+that often does not compile at all.  A short list of bugs a reviewer would
+actually make, aimed at stable spots (kernels, analyses, PSD, shaking, packing,
+the study pipeline), runs in minutes and says exactly what the suite misses.
+
+numba cache: polypack keys its cache folder on a digest of the kernel sources, so
+a mutant of a kernel file recompiles (and its cache folder is deleted afterwards);
+mutants elsewhere reuse one warm cache for the unmodified kernels.  The copy lives
+at a fixed path so numba's per-file index stays valid between mutants.
+
+A mutant whose target text no longer occurs exactly once (the code was refactored)
+is reported as ``stale`` and skipped, never applied somewhere else.
+
+Usage::
+
+    python tools/mutate.py                 # all mutants
+    python tools/mutate.py --list          # the list only
+    python tools/mutate.py --only k-rdf-fast-ly s-random-order
+    python tools/mutate.py --timeout 300 --json mutants.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@dataclass(frozen=True)
+class Mutant:
+    id: str
+    path: str  # relative to the repository root
+    find: str  # exact text, must occur exactly once
+    replace: str
+    tests: tuple  # pytest arguments (files or node ids)
+    kind: str  # which kind of bug
+
+
+K = "src/polypack/_kernels/"
+A = "src/polypack/analysis/"
+P = "src/polypack/psd/"
+G = "src/polypack/generate/"
+E = "src/polypack/ensemble/"
+
+# the file expected to catch a mutant comes first (pytest -x stops at the first failure)
+T_NC = "tests/test_noncubic.py"
+T_EB = "tests/test_error_bars.py"
+T_RDF = (T_NC, "tests/test_analysis_rdf.py")
+T_WIN = (T_NC, "tests/test_analysis_windows_contacts.py")
+T_PORE = (T_NC, "tests/test_analysis_pores.py")
+T_SHAKE = ("tests/test_shake.py", T_NC)
+T_SHAKE_NC = (T_NC, "tests/test_shake.py")
+T_PACK = ("tests/test_pack.py", T_NC)
+T_PSD = ("tests/test_psd_descriptors.py", "tests/test_psd_models.py", "tests/test_psd_classes.py")
+
+MUTANTS = [
+    # ---------------------------------------------------------------- kernels
+    Mutant("k-minimage-half", K + "cells.py",
+           "    half = 0.5 * length\n",
+           "    half = length\n",
+           ("tests/test_packing.py", "tests/test_analysis_rdf.py"), "factor 2"),
+    Mutant("k-separation2-box", K + "cells.py",
+           "    dy = min_image(pos[j, 1] - pos[i, 1], box[1])\n    dz = min_image(pos[j, 2] - pos[i, 2], box[2])\n"
+           "    return dx * dx + dy * dy + dz * dz",
+           "    dy = min_image(pos[j, 1] - pos[i, 1], box[1])\n    dz = min_image(pos[j, 2] - pos[i, 2], box[0])\n"
+           "    return dx * dx + dy * dy + dz * dz",
+           (T_NC, "tests/test_packing.py"), "swapped box length"),
+    # (inside one cell the fast kernel's min_image never wraps: it needs >= 5 cells per axis,
+    # so a swapped length there is an equivalent mutant; the cross-cell sweep is not)
+    Mutant("k-rdf-fast-ly", K + "analysis.py",
+           "                    dy = min_image(y[j] - yi, ly)\n",
+           "                    dy = min_image(y[j] - yi, lz)\n",
+           T_RDF, "swapped box length"),
+    Mutant("k-rdf-fast-cross-lz", K + "analysis.py",
+           "                    dz = min_image(z[j] - zi, lz)\n",
+           "                    dz = min_image(z[j] - zi, lx)\n",
+           T_RDF, "swapped box length"),
+    Mutant("k-halfshell-cly", K + "analysis.py",
+           "gy = max(abs(oy) - 1, 0) * cl[1]",
+           "gy = max(abs(oy) - 1, 0) * cl[0]",
+           T_RDF, "swapped box length"),
+    Mutant("k-rdf-bin-offbyone", K + "analysis.py",
+           "                b = int(np.floor(xv * inv_h + 1e-9))\n",
+           "                b = int(np.floor(xv * inv_h + 1e-9)) + 1\n",
+           (T_NC, "tests/test_analysis_rdf.py"), "off-by-one"),
+    Mutant("k-window-species", K + "analysis.py",
+           "                    out[i, species[j]] += 1\n",
+           "                    out[i, species[i]] += 1\n",
+           T_WIN, "wrong index"),
+    Mutant("k-window-strict", K + "analysis.py",
+           "if j != i and separation2(pos, i, j, box) <= r2:",
+           "if j != i and separation2(pos, i, j, box) < r2:",
+           ("tests/test_analysis_windows_contacts.py", T_NC), "off-by-one (closed vs open window)"),
+    Mutant("k-pores-cl1", K + "analysis.py",
+           "            cl1 = box[1] / nc1\n",
+           "            cl1 = box[0] / nc1\n",
+           T_PORE, "swapped box length"),
+    Mutant("k-pores-minimage-y", K + "analysis.py",
+           "                                dy = min_image(sy[s] - qy, box[1])\n",
+           "                                dy = min_image(sy[s] - qy, box[0])\n",
+           T_PORE, "swapped box length"),
+    Mutant("k-pores-radius-sign", K + "analysis.py",
+           "dd = np.sqrt(dx * dx + dy * dy + dz * dz) - sr[s]",
+           "dd = np.sqrt(dx * dx + dy * dy + dz * dz) + sr[s]",
+           ("tests/test_analysis_pores.py", T_NC), "wrong sign"),
+    Mutant("k-shake-overlap-ly", K + "shake.py",
+           "        dy -= ly * np.rint(dy / ly)\n        dz -= lz * np.rint(dz / lz)\n        sig = ri + radii[j]\n"
+           "        if dx * dx",
+           "        dy -= lx * np.rint(dy / lx)\n        dz -= lz * np.rint(dz / lz)\n        sig = ri + radii[j]\n"
+           "        if dx * dx",
+           T_SHAKE_NC, "swapped box length"),
+    Mutant("k-shake-wrap-y", K + "shake.py",
+           "                    yn = _wrap1(y0 + dya, box[1])\n                    zn = _wrap1(z0 + dza, box[2])\n"
+           "                    if use_cells:",
+           "                    yn = _wrap1(y0 + dya, box[0])\n                    zn = _wrap1(z0 + dza, box[2])\n"
+           "                    if use_cells:",
+           T_SHAKE_NC, "swapped box length"),
+    Mutant("k-shake-random-order", K + "shake.py",
+           "                i = int(rng_uniform(rng) * n)\n",
+           "                i = int(rng_uniform(rng) * (n - 1))\n",
+           T_SHAKE, "off-by-one"),
+    Mutant("k-shake-adapt-shrink", K + "shake.py",
+           "                    if f > step:\n                        rsh[k] *= 1.0 + adapt_factor\n"
+           "                    else:\n                        rsh[k] /= 1.0 + adapt_factor\n",
+           "                    if f > step:\n                        rsh[k] *= 1.0 + adapt_factor\n"
+           "                    else:\n                        rsh[k] /= 1.0 + 2.0 * adapt_factor\n",
+           T_SHAKE, "factor 2"),
+    Mutant("k-shake-flight-sign", K + "shake.py",
+           "        t = t if (b < 0.0 and disc >= 0.0) else np.inf  # approaching and hitting\n"
+           "        best = min(best, t)\n    return max(best, 0.0)\n\n\n\n",
+           "        t = t if (b > 0.0 and disc >= 0.0) else np.inf  # approaching and hitting\n"
+           "        best = min(best, t)\n    return max(best, 0.0)\n\n\n\n",
+           T_SHAKE, "wrong sign"),
+    Mutant("k-shake-collision-tau", K + "shake.py",
+           "                tau = bestf if bestf < step else step\n",
+           "                tau = step\n",
+           T_SHAKE, "bound ignored"),
+    Mutant("k-edmd-minimage-z", K + "edmd.py",
+           "        dz = min_image(x[j, 2] - x[i, 2], box[2])\n",
+           "        dz = min_image(x[j, 2] - x[i, 2], box[0])\n",
+           (T_NC, "tests/test_pack.py"), "swapped box length"),
+    # --------------------------------------------------------------- analyses
+    Mutant("a-k-err-sqrt2", A + "kfunction.py",
+           "return np.sqrt(2.0 * tot) / dens_t", "return np.sqrt(tot) / dens_t",
+           (T_EB, "tests/test_analysis_kfunction.py"), "factor sqrt 2"),
+    Mutant("a-g-err-sqrt2", A + "rdf.py",
+           "rel = np.where(ct > 0, 1.0 / np.sqrt(ct / 2.0), np.nan)",
+           "rel = np.where(ct > 0, 1.0 / np.sqrt(ct), np.nan)",
+           (T_EB, "tests/test_analysis_rdf.py"), "factor sqrt 2"),
+    Mutant("a-partial-err-diag", A + "rdf.py",
+           "unordered = np.where(diag, cp / 2.0, cp)", "unordered = np.where(diag, cp, cp)",
+           (T_EB, "tests/test_analysis_rdf.py"), "factor sqrt 2"),
+    Mutant("a-rdf-shell-volume", A + "rdf.py",
+           "            vol = shell_measure(r, 3) * (2.0 * h)\n",
+           "            vol = shell_measure(r, 3) * h\n",
+           ("tests/test_analysis_rdf.py",), "factor 2"),
+    Mutant("a-contact-err", A + "rdf.py",
+           "sig = np.sqrt(np.maximum(cnt, 1.0)) * g / np.maximum(cnt, 1.0)",
+           "sig = np.sqrt(2.0 * np.maximum(cnt, 1.0)) * g / np.maximum(cnt, 1.0)",
+           (T_EB, "tests/test_analysis_rdf.py"), "factor sqrt 2"),
+    Mutant("a-window-p-err", A + "windows.py",
+           "return np.sqrt((b - 1) / b * np.sum((pj - pj.mean(axis=0)) ** 2, axis=0))",
+           "return np.sqrt(1.0 / b * np.sum((pj - pj.mean(axis=0)) ** 2, axis=0))",
+           (T_EB, "tests/test_analysis_windows_contacts.py"), "wrong factor (jackknife)"),
+    Mutant("a-pores-survival-err", A + "pores.py",
+           "        return np.sqrt(s * (1 - s) / nv)\n",
+           "        return np.sqrt(s * (1 - s) / (2 * nv))\n",
+           (T_EB, "tests/test_analysis_pores.py"), "factor sqrt 2"),
+    Mutant("a-pores-default-r0", A + "pores.py",
+           'r0 = self.r0 if self.r0 is not None else float(packing.radii.mean())',
+           'r0 = self.r0 if self.r0 is not None else float(packing.radii.max())',
+           ("tests/test_analysis_pores.py",), "wrong reference"),
+    Mutant("a-contacts-z-live", A + "contacts.py",
+           '"z_live": 2.0 * int(live.sum()) / n_live if n_live else np.nan,',
+           '"z_live": 2.0 * int(live.sum()) / n if n_live else np.nan,',
+           ("tests/test_analysis_windows_contacts.py",), "wrong denominator"),
+    Mutant("a-pairnorm-contact-3", A + "_paircounts.py",
+           "        + 3.0 * np.outer(mom[2], mom[1])\n",
+           "        + 2.0 * np.outer(mom[2], mom[1])\n",
+           ("tests/test_analysis_rdf.py", "tests/test_analysis_kfunction.py"), "wrong coefficient"),
+    Mutant("a-cs-contact", A + "theory.py",
+           "return (1.0 - 0.5 * c) / (1.0 - c) ** 3", "return (1.0 - 0.5 * c) / (1.0 - c) ** 2",
+           ("tests/test_analysis_theory.py",), "wrong power"),
+    Mutant("a-eq17-printed", A + "theory.py",
+           "q = (g2 - 1) / (g1 - 1) if printed else g2 / g1", "q = (g2 - 1) / g1 if printed else g2 / g1",
+           ("tests/test_analysis_theory.py",), "dropped term"),
+    # --------------------------------------------------------------------- psd
+    Mutant("p-sizeset-quantile-dim", P + "sizeset.py",
+           "        ds = np.sort(self.diameters)\n        cum = np.cumsum(ds**self.dim)\n",
+           "        ds = np.sort(self.diameters)\n        cum = np.cumsum(ds**3)\n",
+           T_PSD, "ignores dimension"),
+    Mutant("p-sizeset-grading-dim", P + "sizeset.py",
+           "        ds = dd[order]\n        cum = np.cumsum(ds**self.dim)\n",
+           "        ds = dd[order]\n        cum = np.cumsum(ds**3)\n",
+           T_PSD, "ignores dimension"),
+    Mutant("p-sizeset-quantile-side", P + "sizeset.py",
+           'k = np.searchsorted(cum, p - 1e-12, side="left")',
+           'k = np.searchsorted(cum, p + 1e-12, side="left")',
+           T_PSD, "off-by-one"),
+    Mutant("p-hazen-cu", P + "descriptors.py",
+           '"Cu": d60 / d10,', '"Cu": d50 / d10,', T_PSD, "wrong index"),
+    # --------------------------------------------------------------- generate
+    Mutant("g-metropolis-feedback", G + "shake.py",
+           "fac = min(1.4, max(0.7, acc[k] / target_acceptance))",
+           "fac = min(1.4, max(0.7, target_acceptance / acc[k]))",
+           T_SHAKE, "wrong sign (inverted feedback)"),
+    Mutant("g-pack-event-budget", G + "lubachevsky.py",
+           "ev_budget = int(max_events) - int(state[2])", "ev_budget = int(max_events)",
+           T_PACK, "budget not decremented"),
+    Mutant("g-pack-cs", G + "lubachevsky.py",
+           "return (1 + eta + eta**2 - eta**3) / (1 - eta) ** 3",
+           "return (1 + eta + eta**2 - 2 * eta**3) / (1 - eta) ** 3",
+           T_PACK, "wrong coefficient"),
+    # ------------------------------------------------------- study / ensemble
+    Mutant("e-discretize-ignored", E + "stages.py",
+           'if psd["sampling"] == "discretize":', 'if psd["sampling"] == "discretise":',
+           ("tests/test_pipeline_options.py",), "option ignored"),
+    Mutant("e-shake-keys", E + "stages.py",
+           '("max_trials", "max_trials"), ("shake_method", "method")',
+           '("max_trials", "max_trial"), ("shake_method", "method")',
+           ("tests/test_pipeline_options.py",), "option misrouted"),
+    Mutant("e-ci-dof", E + "runner.py",
+           "t_quantile(cnt - 1)", "t_quantile(cnt)",
+           (T_EB, "tests/test_ensemble.py"), "off-by-one (degrees of freedom)"),
+]
+
+
+# round 2 (added as it lands): dimension-aware geometry, mechanics
+MUTANTS += [
+    Mutant("r2-geometry-circle", "src/polypack/geometry.py",
+           "return 4.0 * np.pi if check_dim(dim) == 3 else 2.0 * np.pi",
+           "return 4.0 * np.pi if check_dim(dim) == 3 else np.pi",
+           ("tests/test_dimensions.py",), "factor 2 (2D)"),
+    Mutant("r2-zeta-reference", "src/polypack/mechanics/effective.py",
+           "return g * (9.0 * k + 8.0 * g) / (6.0 * (k + 2.0 * g))",
+           "return g * (9.0 * k + 8.0 * g) / (6.0 * (k + g))",
+           ("tests/test_mechanics_effective.py",), "dropped factor"),
+    Mutant("r2-dilute-sign", "src/polypack/mechanics/effective.py",
+           "        g += ci * (m.shear + z) * (1.0 - (m.shear + z) * _inv(p.shear + z))\n",
+           "        g -= ci * (m.shear + z) * (1.0 - (m.shear + z) * _inv(p.shear + z))\n",
+           ("tests/test_mechanics_effective.py",), "wrong sign"),
+]
+
+
+def _kernel_digest(src: Path) -> str:
+    h = hashlib.sha1()
+    for p in sorted((src / "polypack" / "_kernels").glob("*.py")):
+        h.update(p.name.encode() + p.read_bytes())
+    return h.hexdigest()[:12]
+
+
+def _copy_tree(dest: Path):
+    if dest.exists():
+        shutil.rmtree(dest)
+    ignore = shutil.ignore_patterns("__pycache__", "*.pyc", ".git", "*.egg-info", ".pytest_cache")
+    for name in ("src", "tests", "examples", "pyproject.toml"):
+        s = ROOT / name
+        if s.is_dir():
+            shutil.copytree(s, dest / name, ignore=ignore)  # copy2: keeps mtimes
+        elif s.exists():
+            shutil.copy2(s, dest / name)
+
+
+def _run_tests(tree: Path, tests, timeout, cache_base: Path):
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(tree / "src")
+    env["NUMBA_CACHE_DIR"] = str(cache_base / _kernel_digest(tree / "src"))
+    env["MPLBACKEND"] = "Agg"
+    env.setdefault("PYTHONDONTWRITEBYTECODE", "1")
+    tests = [t for t in tests if (tree / t.split("::")[0]).exists()]
+    if not tests:
+        return "no-tests", 0.0, "none of the listed test files exists"
+    cmd = [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", "-m", "", *tests]
+    t0 = time.perf_counter()
+    try:
+        pr = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return "timeout", time.perf_counter() - t0, ""
+    dt = time.perf_counter() - t0
+    out = pr.stdout.strip().splitlines()
+    failed = next((ln for ln in out if ln.startswith(("FAILED", "ERROR"))), out[-1] if out else "")
+    if pr.returncode == 0:
+        return "passed", dt, out[-1] if out else ""
+    if pr.returncode == 1:
+        return "failed", dt, failed
+    return f"error{pr.returncode}", dt, failed or (pr.stderr.strip().splitlines() or [""])[-1]
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--only", nargs="*", help="mutant ids to run")
+    ap.add_argument("--list", action="store_true", help="print the mutant list and exit")
+    ap.add_argument("--timeout", type=float, default=600.0, help="seconds per mutant (default 600)")
+    ap.add_argument("--json", help="write the results to this file")
+    ap.add_argument("--workdir", help="where the copy lives (default: a fixed folder in the temp dir)")
+    ap.add_argument("--no-baseline", action="store_true", help="skip the unmutated run of all selected tests")
+    args = ap.parse_args(argv)
+
+    mutants = MUTANTS if not args.only else [m for m in MUTANTS if m.id in set(args.only)]
+    if args.only and len(mutants) != len(set(args.only)):
+        unknown = set(args.only) - {m.id for m in mutants}
+        ap.error(f"unknown mutant id(s): {sorted(unknown)}")
+    if args.list:
+        for m in mutants:
+            print(f"{m.id:26s} {m.kind:34s} {m.path}")
+        return 0
+
+    work = Path(args.workdir or Path(tempfile.gettempdir()) / f"polypack-mutate-{os.getuid()}")
+    tree = work / "tree"
+    cache_base = work / "numba"
+    _copy_tree(tree)
+    clean_digest = _kernel_digest(tree / "src")
+
+    if not args.no_baseline:
+        tests = sorted({t for m in mutants for t in m.tests})
+        status, dt, line = _run_tests(tree, tests, 4 * args.timeout, cache_base)
+        print(f"baseline (no mutant): {status} in {dt:.0f} s  {line}")
+        if status != "passed":
+            print("the unmutated tree fails its tests: fix that first", file=sys.stderr)
+            return 2
+
+    rows = []
+    for m in mutants:
+        target = tree / m.path
+        if not target.exists():
+            rows.append((m, "stale", 0.0, f"{m.path} does not exist"))
+            print(f"{m.id:26s} stale     (file gone)", flush=True)
+            continue
+        original = target.read_bytes()
+        stat = target.stat()
+        text = original.decode()
+        hits = text.count(m.find)
+        if hits != 1:
+            rows.append((m, "stale", 0.0, f"target text found {hits} times"))
+            print(f"{m.id:26s} stale     (target text found {hits} times)", flush=True)
+            continue
+        target.write_text(text.replace(m.find, m.replace))
+        digest = _kernel_digest(tree / "src")
+        try:
+            status, dt, line = _run_tests(tree, m.tests, args.timeout, cache_base)
+        finally:
+            target.write_bytes(original)
+            os.utime(target, ns=(stat.st_atime_ns, stat.st_mtime_ns))
+            if digest != clean_digest:
+                shutil.rmtree(cache_base / digest, ignore_errors=True)
+        verdict = {"passed": "SURVIVED", "no-tests": "no-tests"}.get(status, "caught")
+        rows.append((m, verdict, dt, line if status != "timeout" else "timeout"))
+        print(f"{m.id:26s} {verdict:9s} {dt:6.0f} s  {status:8s} {line[:90]}", flush=True)
+
+    ran = [r for r in rows if r[1] in ("caught", "SURVIVED")]
+    caught = sum(r[1] == "caught" for r in ran)
+    print()
+    print(f"{'mutant':26s} {'kind':34s} {'result':9s} {'s':>5s}")
+    for m, verdict, dt, _ in rows:
+        print(f"{m.id:26s} {m.kind:34s} {verdict:9s} {dt:5.0f}")
+    stale = sum(r[1] == "stale" for r in rows)
+    print(f"\ncaught {caught} of {len(ran)} mutants ({caught / max(len(ran), 1):.0%})"
+          + (f"; {stale} stale (target text changed: update the list)" if stale else ""))
+    if args.json:
+        data = [{"id": m.id, "path": m.path, "kind": m.kind, "result": v, "seconds": round(dt, 1), "detail": d}
+                for m, v, dt, d in rows]
+        Path(args.json).write_text(json.dumps({"caught": caught, "ran": len(ran), "mutants": data}, indent=1))
+    return 0 if caught == len(ran) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
