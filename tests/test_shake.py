@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import polypack as pp
+from polypack.analysis import ContactValueMonitor
 from polypack.errors import InvalidInputError, OverlapError
 from polypack.generate.shake import shake
 from polypack.neighbors import pairs_within
@@ -156,7 +157,7 @@ def test_reproducible_for_a_seed(packs):
     pk = packs["bi"]
     for method in METHODS:
         a = shake(pk, global_shakes=3, method=method, seed=11)
-        b = shake(pk, global_shakes=3, method=method, seed=11, monitor_every=1)
+        b = shake(pk, global_shakes=3, method=method, seed=11, monitor=ContactValueMonitor(), monitor_every=1)
         c = shake(pk, global_shakes=3, method=method, seed=12)
         assert np.array_equal(a.positions, b.positions)
         assert not np.array_equal(a.positions, c.positions)
@@ -205,7 +206,7 @@ def test_monitor_and_callback():
 
     pk = fcc(0.5, n1=3)
     seen = []
-    out = shake(pk, global_shakes=6, method="paper", seed=1, monitor_every=2,
+    out = shake(pk, global_shakes=6, method="paper", seed=1, monitor=ContactValueMonitor(), monitor_every=2,
                 callback=lambda m, p: seen.append((m, p.min_gap() >= 0)))
     mon = out.meta["shake"]["monitor"]
     assert mon["global_shake"] == [0, 2, 4, 6]
@@ -214,14 +215,21 @@ def test_monitor_and_callback():
     assert vals[-1] == pytest.approx(contact_value(out, width=0.05)[(0, 0)], rel=1e-12)
     assert seen == [(m, True) for m in range(1, 7)]
     seed_est = {"width": 0.005, "n_bins": 1, "degree": 0}  # the seed's histogram g(2a+), dr = 0.01a
-    first = shake(pk, global_shakes=3, method="paper", seed=1, monitor_options=seed_est)
+    first = shake(pk, global_shakes=3, method="paper", seed=1, monitor=ContactValueMonitor(**seed_est))
     mon = first.meta["shake"]["monitor"]
-    assert mon["global_shake"] == [0, 3]
+    assert mon["global_shake"] == [0, 3] and mon["options"] == seed_est
     assert mon["contact_value"]["0-0"][-1] == pytest.approx(contact_value(first, **seed_est)[(0, 0)], rel=1e-12)
-    with pytest.raises(InvalidInputError, match="monitor_options"):
-        shake(pk, global_shakes=1, monitor_options={"bins": 3})
-    none = shake(pk, global_shakes=2, seed=1, monitor_every=0)
+    with pytest.raises(TypeError):
+        ContactValueMonitor(bins=3)
+    with pytest.raises(InvalidInputError, match="monitor="):
+        shake(pk, global_shakes=1, monitor={"bins": 3})
+    none = shake(pk, global_shakes=2, seed=1, monitor=ContactValueMonitor(), monitor_every=0)
     assert none.meta["shake"]["monitor"] is None
+    # no monitor by default: the generators do not reach into the analysis layer
+    assert shake(pk, global_shakes=2, seed=1).meta["shake"]["monitor"] is None
+    # any callable is a monitor; its values are recorded under its name
+    own = shake(pk, global_shakes=2, seed=1, monitor=lambda p: {"gap": p.min_gap()})
+    assert own.meta["shake"]["monitor"]["values"]["gap"][-1] == pytest.approx(own.min_gap(), rel=1e-15)
 
 
 def test_zero_global_shakes_is_identity(packs):

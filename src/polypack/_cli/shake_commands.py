@@ -41,6 +41,7 @@ def register(app: typer.Typer) -> None:
         """Shake a pack: the seed's Monte-Carlo shaking (or collision-limited / Metropolis moves)."""
         from .. import io
         from .._util import output_path
+        from ..analysis import ContactValueMonitor
         from ..generate.shake import shake as run_shake
 
         io.format_for(target)
@@ -49,7 +50,7 @@ def register(app: typer.Typer) -> None:
         out = run_shake(
             pk, global_shakes=global_shakes, shake_radius=_floats(shake_radius), max_trials=_floats(max_trials),
             method=method, seed=seed, progress=progress, order=order, adaptive=adaptive,
-            monitor_every=monitor_every,
+            monitor=ContactValueMonitor(), monitor_every=monitor_every,
         )
         io.write(target, out)
         sh = out.meta["shake"]
@@ -92,6 +93,7 @@ def register(app: typer.Typer) -> None:
         import numpy as np
 
         from .. import io
+        from ..analysis import ContactValueMonitor
         from ..errors import InvalidInputError
         from ..generate.shake import scrm
         from .._util import output_path
@@ -111,7 +113,7 @@ def register(app: typer.Typer) -> None:
             SimpleNamespace(radii=radii, species=species), volume_fraction=volume_fraction, seed=seed,
             growth_steps=growth_steps, start_fraction=start_fraction, stage_shakes=stage_shakes,
             global_shakes=global_shakes, growth_rate=growth_rate, progress=progress, method=method,
-            shake_radius=_floats(shake_radius), max_trials=_floats(max_trials),
+            shake_radius=_floats(shake_radius), max_trials=_floats(max_trials), monitor=ContactValueMonitor(),
         )
         io.write(output, pk)
         sh, rec = pk.meta["shake"], pk.meta["scrm"]

@@ -398,3 +398,47 @@ def contact_value(packing, pairs=None, width=0.05, n_bins=10, degree=1, return_e
     if return_error:
         return values, errors
     return values
+
+
+class ContactValueMonitor:
+    """Convergence monitor for the generators: the contact values ``g_km(a_k + a_m)+`` of a pack.
+
+    A callable ``monitor(packing) -> {"k-m": value}`` over the species pairs present,
+    computed with :func:`contact_value`; pass it to :func:`polypack.shake` or
+    :func:`polypack.scrm` (``monitor=``).  The generators never import the analysis
+    layer; this object carries the estimator to them.
+
+    Parameters
+    ----------
+    width, n_bins, degree
+        Options of :func:`contact_value`; the default (linear extrapolation over a 5 %
+        gap window) is what ``polypack run`` uses.  The seed's own estimator, the
+        histogram value in ``[2a, 2a + 0.01a)`` (§5.1 of 000_2cedc098acbd866b.txt), is
+        ``ContactValueMonitor(width=0.005, n_bins=1, degree=0)``.
+    """
+
+    name = "contact_value"
+
+    def __init__(self, width=0.05, n_bins=10, degree=1):
+        width = check_positive("width", width)
+        if isinstance(n_bins, bool) or int(n_bins) != n_bins or n_bins < degree + 1:
+            raise InvalidInputError(f"n_bins={n_bins!r} must be an integer >= degree + 1")
+        if isinstance(degree, bool) or int(degree) != degree or degree < 0:
+            raise InvalidInputError(f"degree={degree!r} must be an integer >= 0")
+        self._options = {"width": width, "n_bins": int(n_bins), "degree": int(degree)}
+
+    @property
+    def options(self) -> dict:
+        """The :func:`contact_value` options (a copy)."""
+        return dict(self._options)
+
+    def __call__(self, packing) -> dict:
+        counts = np.bincount(packing.species, minlength=packing.n_species)
+        present = [k for k in range(packing.n_species) if counts[k] > 0]
+        pairs = [(k, m) for ki, k in enumerate(present) for m in present[ki:]]
+        vals = contact_value(packing, pairs=pairs, **self._options)
+        return {f"{k}-{m}": float(vals[(k, m)]) for k, m in pairs}
+
+    def __repr__(self) -> str:
+        o = self._options
+        return f"ContactValueMonitor(width={o['width']!r}, n_bins={o['n_bins']}, degree={o['degree']})"

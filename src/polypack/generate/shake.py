@@ -65,13 +65,6 @@ def _check_int(name, value, minimum):
     return int(value)
 
 
-def _contact_monitor(packing, options, pairs):
-    from ..analysis import contact_value
-
-    vals = contact_value(packing, pairs=pairs, **options)
-    return {f"{k}-{m}": float(vals[(k, m)]) for k, m in pairs}
-
-
 def shake(
     packing,
     global_shakes=60,
@@ -88,8 +81,8 @@ def shake(
     target_acceptance=0.4,
     skin=None,
     neighbours="auto",
+    monitor=None,
     monitor_every=None,
-    monitor_options=None,
     callback=None,
 ) -> Packing:
     """Monte-Carlo shaking of a hard-sphere pack (§3.2 of 000_2cedc098acbd866b.txt).
@@ -164,15 +157,17 @@ def shake(
         steps, e.g. Metropolis in a dilute fluid, but only for similar sizes).
         ``"auto"`` uses cells when ``r_max <= 2 r_min`` and ``max R_sh >= 0.25``.
         Both tests are exact, so the results are identical.
+    monitor : callable, optional
+        Convergence monitor ``monitor(packing) -> {key: float}``, e.g.
+        :class:`polypack.analysis.ContactValueMonitor` (the contact values
+        ``g_km(a_k + a_m)+`` per species pair ``"k-m"``).  Its values are recorded in
+        ``meta["shake"]["monitor"][monitor.name]`` (``name`` attribute, default
+        ``"values"``) with ``monitor.options`` (if any).  Default: no monitor.  The
+        generators never import :mod:`polypack.analysis`; ``polypack run`` passes the
+        contact-value monitor.
     monitor_every : int, optional
-        Record the contact values ``g_km(a_k + a_m)+`` (via
-        :func:`polypack.analysis.contact_value`) every this many global shakes;
-        default ``None`` records only before and after, ``0`` never.
-    monitor_options : dict, optional
-        Options of :func:`polypack.analysis.contact_value` for the monitor; default
-        ``{"width": 0.05, "n_bins": 10, "degree": 1}`` (linear extrapolation over a
-        5 % gap window).  The seed's own estimator, the histogram value in
-        ``[2a, 2a + 0.01a)`` (§5.1), is ``{"width": 0.005, "n_bins": 1, "degree": 0}``.
+        With a ``monitor``: record every this many global shakes; default ``None``
+        records only before and after, ``0`` never.
     callback : callable, optional
         ``callback(m, packing)`` after every global shake ``m = 1..M``.
 
@@ -187,7 +182,8 @@ def shake(
         ``mean_displacement`` (mean accepted ``|Δx| / a_i``), ``shake_radius_history``;
         ``net_displacement``: rows ``[m, per-species rms displacement since the start
         over a_i]`` (after every shake when monitoring, else at the end);
-        ``monitor`` (``global_shake`` and ``contact_value`` per pair ``"k-m"``),
+        ``monitor`` (``global_shake`` and the monitor's values, e.g. ``contact_value`` per
+        pair ``"k-m"``; None without a monitor),
         ``trials``, ``accepted``, ``acceptance`` (overall), ``trial_moves_per_second``,
         ``wall_time``, ``rebuilds``,
         ``min_gap``.  ``meta["history"]`` gets a summary entry.
@@ -250,13 +246,10 @@ def shake(
         raise InvalidInputError(f"target_acceptance={target_acceptance!r}: must be in (0, 1)")
     if monitor_every is not None:
         monitor_every = _check_int("monitor_every", monitor_every, 0)
-    mon_opts = {"width": 0.05, "n_bins": 10, "degree": 1}
-    if monitor_options is not None:
-        if not isinstance(monitor_options, dict) or set(monitor_options) - set(mon_opts):
-            raise InvalidInputError(
-                f"monitor_options={monitor_options!r}: a dict with keys among {sorted(mon_opts)}"
-            )
-        mon_opts.update(monitor_options)
+    if monitor is not None and not callable(monitor):
+        raise InvalidInputError(f"monitor={monitor!r}: must be callable as monitor(packing) -> dict of floats")
+    if monitor is None:
+        monitor_every = 0
     if neighbours not in ("auto", "verlet", "cells"):
         raise InvalidInputError(f"neighbours={neighbours!r}: allowed are 'auto', 'verlet' and 'cells'")
     if callback is not None and not callable(callback):
@@ -338,15 +331,16 @@ def shake(
     rebuilds = 0
 
     counts = np.bincount(species, minlength=ns).astype(np.float64)
-    present = [k for k in range(ns) if counts[k] > 0]
-    pairs = [(k, m) for ki, k in enumerate(present) for m in present[ki:]]
-    monitor = {"global_shake": [], "contact_value": {f"{k}-{m}": [] for k, m in pairs}, "options": mon_opts}
+    mon_name = str(getattr(monitor, "name", "values"))
+    mon_record = {"global_shake": [], mon_name: {}}
+    if getattr(monitor, "options", None) is not None:
+        mon_record["options"] = dict(monitor.options)
 
     def record(m, pk):
-        monitor["global_shake"].append(m)
-        vals = _contact_monitor(pk, mon_opts, pairs)
+        mon_record["global_shake"].append(m)
+        vals = monitor(pk)
         for key, v in vals.items():
-            monitor["contact_value"][key].append(v)
+            mon_record[mon_name].setdefault(str(key), []).append(float(v))
 
     if monitor_every != 0:
         record(0, packing)
@@ -491,13 +485,13 @@ def shake(
         "wall_time": None,
         "min_gap": float(gap_out),
         "input_min_gap": float(gap_in),
-        "monitor": monitor if monitor_every != 0 else None,
+        "monitor": mon_record if monitor_every != 0 else None,
         **hist,
     }
     run["wall_time"] = time.perf_counter() - wall0
     summary = {k: v for k, v in run.items() if k not in hist and k != "monitor"}
     if run["monitor"] is not None:
-        summary["contact_value_final"] = {k: v[-1] for k, v in monitor["contact_value"].items()}
+        summary[f"{mon_name}_final"] = {k: v[-1] for k, v in mon_record[mon_name].items()}
     history.append(summary)
     meta["shake"] = run
     meta["history"] = history
@@ -683,7 +677,7 @@ def scrm(
         "stages": stages,
         "seed": seed_record(ss),
         "shake_options": {k: (v if isinstance(v, (int, float, str, bool, type(None))) else repr(v))
-                          for k, v in shake_options.items()},
+                          for k, v in shake_options.items() if k != "monitor"},
         "wall_time": time.perf_counter() - wall0,
     }
     pk.meta = meta
