@@ -382,3 +382,20 @@ def test_default_skin_follows_the_volume_weighted_size():
     assert default_skin(np.r_[np.full(107, 3.0), np.ones(2893)]) == pytest.approx(0.5, abs=0.01)
     # a few coarse spheres holding little volume leave the margin of the fines alone
     assert default_skin(np.r_[np.full(2, 3.0), np.ones(2000)]) == pytest.approx(0.25, abs=0.02)
+
+
+def test_packer_kernel_boundary_is_named():
+    """No raw slot numbers or status codes cross the packer's kernel boundary."""
+    import re
+    from pathlib import Path
+
+    from polypack._kernels import edmd
+
+    assert [int(s) for s in edmd.ChunkStatus] == list(range(5))
+    p = edmd.make_params(t_stop=1.0, max_collisions=2.0, max_pressure=3.0, pressure_window=4.0, t_ref=5.0,
+                         alpha=6.0, max_events=7.0, sync_every=8.0, dilute=9.0, margin_cap=10.0, speed=11.0)
+    assert p.shape == (edmd.N_PARAMS,)
+    assert [p[getattr(edmd, n)] for n in ("P_T_STOP", "P_MAX_COLLISIONS", "P_SPEED")] == [1.0, 2.0, 11.0]
+    src = Path(pp.generate.lubachevsky.__file__).read_text()
+    assert not re.search(r"\b(state|params)\[\d", src), "use the named slots edmd.S_* / edmd.P_*"
+    assert not re.search(r"\bcode == \d", src), "use edmd.ChunkStatus"

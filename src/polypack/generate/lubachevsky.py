@@ -350,8 +350,8 @@ def pack(
     t_fast = t_unit * (phi_fast * box_vol / vol_unit) ** (1.0 / 3.0)
     fast_phase = fast > 1.0 and t_fast > t0
 
-    state = np.zeros(8)
-    state[0] = t0
+    state = np.zeros(edmd.N_STATE)
+    state[edmd.S_TIME] = t0
     hist_rows = []
     status = "running"
     # Chunks of a fixed collision count: each chunk starts with a full synchronisation
@@ -367,7 +367,7 @@ def pack(
     t_begin_chunks = time.perf_counter()
     bar = progress_bar(total=None, desc="pack", progress=progress, unit="coll")
     last_p = float("nan")
-    code = 0
+    code = edmd.ChunkStatus.CHUNK_DONE
     # Ctrl-C is deferred to the end of the current chunk (a safe point: every sphere is
     # synchronised there), so the kernel is never torn apart mid-update
     with _interrupt.deferred():
@@ -378,23 +378,24 @@ def pack(
                     break
                 budget = chunk
                 if max_collisions is not None:
-                    budget = min(budget, int(max_collisions) - int(state[1]))
+                    budget = min(budget, int(max_collisions) - int(state[edmd.S_COLLISIONS]))
                     if budget <= 0:
                         status = "collision_budget"
                         break
                 ev_budget = 1e18
                 if max_events is not None:
-                    ev_budget = int(max_events) - int(state[2])
+                    ev_budget = int(max_events) - int(state[edmd.S_EVENTS])
                     if ev_budget <= 0:
                         status = "event_budget"
                         break
-                params = np.array(
-                    [t_fast if fast_phase else t_stop, float(budget), p_max, float(window), t_ref, skin,
-                     float(ev_budget), float(opt["sync_every"] or 0), dilute_skin, float(opt["margin_cap"]),
-                     1.0 / fast if fast_phase else 1.0]
+                params = edmd.make_params(
+                    t_stop=t_fast if fast_phase else t_stop, max_collisions=float(budget), max_pressure=p_max,
+                    pressure_window=float(window), t_ref=t_ref, alpha=skin, max_events=float(ev_budget),
+                    sync_every=float(opt["sync_every"] or 0), dilute=dilute_skin,
+                    margin_cap=float(opt["margin_cap"]), speed=1.0 / fast if fast_phase else 1.0,
                 )
                 hist = np.zeros((budget // max(window, 1) + 2, 3))
-                c0 = state[1]
+                c0 = state[edmd.S_COLLISIONS]
                 tc = time.perf_counter()
                 code, nh = edmd.run_chunk(x, v, g, box, state, params, hist)
                 dtc = time.perf_counter() - tc
@@ -402,26 +403,26 @@ def pack(
                     for row in hist[:nh]:
                         hist_rows.append((phi_at(row[0]), row[1]))
                         last_p = row[1]
-                done = state[1] - c0
+                done = state[edmd.S_COLLISIONS] - c0
                 rate = done / dtc if dtc > 0 else 0.0
                 bar.update(int(done))
-                bar.set_postfix(phi=f"{phi_at(state[0]):.5f}", p=f"{last_p:.4g}", rate=f"{rate:.3g}/s")
-                code = int(code)
-                if fast_phase and code == 1:  # end of the fast start: on at the requested rate
+                bar.set_postfix(phi=f"{phi_at(state[edmd.S_TIME]):.5f}", p=f"{last_p:.4g}", rate=f"{rate:.3g}/s")
+                code = edmd.ChunkStatus(int(code))
+                if fast_phase and code == edmd.ChunkStatus.REACHED_T_STOP:  # end of the fast start
                     fast_phase = False
                     continue
-                if code == 1:
+                if code == edmd.ChunkStatus.REACHED_T_STOP:
                     status = "target" if target is not None else "jammed"
                     if target is None:
-                        code = 3  # reached the box limit without jamming
+                        code = edmd.ChunkStatus.BOX_LIMIT  # reached the box limit without jamming
                     break
-                if code == 2:
+                if code == edmd.ChunkStatus.JAMMED:
                     status = "jammed"
                     break
-                if code == 3:
+                if code == edmd.ChunkStatus.BOX_LIMIT:
                     status = "jammed"
                     break
-                if code == 4:
+                if code == edmd.ChunkStatus.EVENT_BUDGET:
                     status = "event_budget"
                     break
                 if max_seconds is not None and time.perf_counter() - wall0 >= float(max_seconds):
@@ -431,10 +432,10 @@ def pack(
             bar.close()
     run_time = time.perf_counter() - t_begin_chunks
 
-    t = float(state[0])
+    t = float(state[edmd.S_TIME])
     if status == "interrupted" and not t > 0.0:
         raise Interrupted("pack interrupted before the spheres had grown; nothing to save", partial=None)
-    if status == "jammed" and code == 3 and target is None:
+    if status == "jammed" and code == edmd.ChunkStatus.BOX_LIMIT and target is None:
         raise InfeasibleError(
             f"{n} spheres cannot jam in a periodic box before the largest one reaches half the box; "
             "use more spheres"
@@ -463,7 +464,7 @@ def pack(
                 pos, box_out, gap = pos2, box2, gap2
                 break
             shrink *= 1.0 - 1e-15 - abs(gap2)
-    collisions = int(state[1])
+    collisions = int(state[edmd.S_COLLISIONS])
     phi_reached = vol_spheres / float(np.prod(box_out))
     p_last = float(hist_rows[-1][1]) if hist_rows else float("nan")
     jam = phi_reached / (1.0 - 3.0 / p_last) if (p_last > 3.0 and math.isfinite(p_last)) else float("nan")
@@ -478,9 +479,9 @@ def pack(
         "target": "jammed" if target is None else target,
         "volume_fraction": phi_reached,
         "collisions": collisions,
-        "events": int(state[2]),
-        "rebuilds": int(state[3]),
-        "shell_rebuilds": int(state[6]),
+        "events": int(state[edmd.S_EVENTS]),
+        "rebuilds": int(state[edmd.S_REBUILDS]),
+        "shell_rebuilds": int(state[edmd.S_LOCAL_REBUILDS]),
         "wall_time": time.perf_counter() - wall0,
         "run_time": run_time,
         "collisions_per_second": collisions / run_time if run_time > 0 else 0.0,
