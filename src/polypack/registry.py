@@ -177,6 +177,7 @@ class Capability:
     requires: tuple = ()  # "module:attribute" that must import for the capability to be available
     check: Any = None  # check(resolved_options, path): cross-key validation after the table checks
     preflight: Any = None  # preflight(resolved_options, info, path): before a study runs (info: box estimate)
+    kernels: tuple = ()  # numba kernel modules it runs ("polypack._kernels.edmd"): compiled once before a pool
     origin: str = ""
 
     def load(self) -> Callable:
@@ -278,7 +279,7 @@ _DISCOVERING = False
 
 
 def register(kind: str, name: str, options, run, outputs: Outputs | None = None, *, doc: str = "",
-             aliases=(), requires=(), check=None, preflight=None, replace: bool = False) -> Capability:
+             aliases=(), requires=(), check=None, preflight=None, kernels=(), replace: bool = False) -> Capability:
     """Declare a capability (see the module docstring); returns it.
 
     Raises
@@ -296,7 +297,7 @@ def register(kind: str, name: str, options, run, outputs: Outputs | None = None,
     if name in _REGISTRY[kind] and not replace:
         raise InvalidInputError(f"{kind} {name!r} is already registered (by {_REGISTRY[kind][name].origin or '?'})")
     cap = Capability(kind, name, options, run, outputs or Outputs(), doc, tuple(aliases), tuple(requires),
-                     check, preflight, origin=_caller_module())
+                     check, preflight, tuple(kernels), origin=_caller_module())
     _REGISTRY[kind][name] = cap
     for a in cap.aliases:
         _ALIASES[kind][a] = name

@@ -100,19 +100,22 @@ _A = "polypack.analysis:"
 register("analysis", "rdf", RDFOptions, run_rdf,
          Outputs(curves=Curves("r", "distance r (user length units)", "g(r)")),
          doc="radial distribution functions g(r), g_km(r): Eq. (4) of 000_2cedc098acbd866b.txt",
-         requires=(_A + "RDF",), preflight=check_r_max)
+         requires=(_A + "RDF",), preflight=check_r_max, kernels=("polypack._kernels.cells", "polypack._kernels.analysis"))
 register("analysis", "kfunction", KFunctionOptions, run_kfunction,
          Outputs(curves=Curves("r", "distance r (user length units)", "K(r)", partials=False)),
          doc="Ripley K functions K(r), K_km(r): Eq. (2) of 000_2cedc098acbd866b.txt",
-         requires=(_A + "KFunction",), preflight=check_r_max)
+         requires=(_A + "KFunction",), preflight=check_r_max,
+         kernels=("polypack._kernels.cells", "polypack._kernels.analysis"))
 register("analysis", "windows", WindowsOptions, run_windows,
          Outputs(curves=Curves("n_h", "spheres in the window n_h", "p(n_h)", style="points", histogram=True)),
          doc="window histograms p(n_h) (Fig. 4 of 000_2cedc098acbd866b.txt)",
-         requires=(_A + "WindowCounts",))
+         requires=(_A + "WindowCounts",), kernels=("polypack._kernels.cells", "polypack._kernels.analysis"))
 register("analysis", "contacts", ContactsOptions, run_contacts,
          Outputs(flatten=("per_species",)),
-         doc="coordination numbers per species pair, rattlers", requires=(_A + "Contacts",))
+         doc="coordination numbers per species pair, rattlers", requires=(_A + "Contacts",),
+         kernels=("polypack._kernels.cells",))
 register("analysis", "pores", PoresOptions, run_pores,
          Outputs(flatten=("fit",), curves=Curves("r", "pore radius r (user length units)", "P(r_P > r)",
                                                   plot=("survival",))),
-         doc="pore-size distribution and degree of heterogeneity, Eq. (6) of 003_873b69fc71c74cf6.txt", requires=(_A + "PoreSizes",))
+         doc="pore-size distribution and degree of heterogeneity, Eq. (6) of 003_873b69fc71c74cf6.txt", requires=(_A + "PoreSizes",),
+         kernels=("polypack._kernels.cells", "polypack._kernels.analysis"))

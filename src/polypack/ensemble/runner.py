@@ -24,6 +24,7 @@ import csv
 import hashlib
 import json
 import math
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -35,7 +36,7 @@ from .._util import atomic_open, check_output_folder, make_folder, progress_bar
 from ..errors import InvalidInputError, PolypackError
 from ..study import Study, load_study
 from ._lock import RunFolderLock
-from .stages import check_available, child_seed_records, preflight, realize
+from .stages import check_available, child_seed_records, compile_kernels, preflight, realize
 
 __all__ = ["run_study", "EnsembleResult", "run_realization", "verify_realization", "aggregate", "regenerate"]
 
@@ -344,6 +345,10 @@ def _run_locked(study, out, seeds, executor, workers, force, progress, aggregate
                 computed.append(i)
                 bar.update(1)
         elif todo:
+            # compile the study's kernels once here: the workers then load the numba cache
+            # instead of compiling the same kernels at the same time (cold start)
+            if os.environ.get("POLYPACK_PRECOMPILE", "1") != "0":
+                compile_kernels(study.data)
             if executor is None:
                 own = executor = cf.ProcessPoolExecutor(max_workers=min(workers, len(todo)), initializer=_worker_init)
             futs = {executor.submit(run_realization, study.data, i, seeds[i]): i for i in todo}

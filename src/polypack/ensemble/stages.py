@@ -18,7 +18,8 @@ from .._util import seed_from_record, seed_record
 from ..errors import InvalidInputError
 from ..geometry import unit_ball_volume
 
-__all__ = ["make_sizes", "make_packing", "run_analyses", "realize", "stage_seeds", "check_available", "preflight"]
+__all__ = ["make_sizes", "make_packing", "run_analyses", "realize", "stage_seeds", "check_available", "preflight",
+           "study_kernels", "compile_kernels"]
 
 def stage_seeds(seed_rec):
     """Independent child seeds of one realization: ``(sizes, protocol, analysis)``."""
@@ -59,6 +60,34 @@ def _shake_options(pr):
 
 _SHAKE_KEYS = (("shake_radius", "shake_radius"), ("max_trials", "max_trials"), ("shake_method", "method"),
                ("adaptive", "adaptive"))
+
+
+def study_kernels(study_data) -> list[str]:
+    """The numba kernel modules a study runs (its protocol's and analyses', plus the monitor's)."""
+    mods = list(_protocol(study_data).kernels)
+    for name in sorted(study_data.get("analysis", {})):
+        mods += list(registry.get("analysis", name).kernels)
+    mods += ["polypack._kernels.cells", "polypack._kernels.analysis"]  # the contact-value monitor of shaking
+    return list(dict.fromkeys(mods))
+
+
+def compile_kernels(study_data) -> dict:
+    """Compile (or load from the numba cache) the kernels a study needs, in this process.
+
+    Run before a process pool starts, so the workers load the cache instead of all
+    compiling the same kernels at once. Returns ``{module: seconds}``.
+    """
+    import importlib
+    import time
+
+    out = {}
+    for mod in study_kernels(study_data):
+        t0 = time.perf_counter()
+        fn = getattr(importlib.import_module(mod), "warmup", None)
+        if fn is not None:
+            fn()
+        out[mod] = time.perf_counter() - t0
+    return out
 
 
 def check_available(study_data):

@@ -117,8 +117,9 @@ def check_scrm(pr: dict, path: str = "protocol") -> None:
 
 register("protocol", "crm", CRMOptions, run_crm, Outputs(),
          doc="CRM (Lubachevsky–Stillinger growth), §3.1 of 000_2cedc098acbd866b.txt; then M global shakes",
-         requires=("polypack.generate:pack",), check=check_crm)
+         requires=("polypack.generate:pack",), check=check_crm,
+         kernels=("polypack._kernels.cells", "polypack._kernels.edmd", "polypack._kernels.shake"))
 register("protocol", "scrm", SCRMOptions, run_scrm, Outputs(),
          doc="SCRM: CRM growth interleaved with shaking, §3.2 of 000_2cedc098acbd866b.txt",
          requires=("polypack.generate:pack", "polypack.generate:scrm", "polypack.generate:shake"),
-         check=check_scrm)
+         check=check_scrm, kernels=("polypack._kernels.cells", "polypack._kernels.edmd", "polypack._kernels.shake"))

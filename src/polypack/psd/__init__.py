@@ -1,8 +1,8 @@
 """Particle-size distributions: grading curves, size classes, representativity, Hazen descriptors.
 
 Implements 001_ad5bae0acea940c4.txt (models of particle size distribution: inverse
-sampling Eqs. (1)-(4), classes Eqs. (6)-(11), cumulative beta model Eqs. (12)-(17), Hazen
-coefficients Eqs. (18)-(20), regression coefficient Eq. (21), accessible domain Fig. 8)
+sampling Eq. (1) of 001_ad5bae0acea940c4.txt to Eq. (4) of 001_ad5bae0acea940c4.txt, classes Eq. (6) of 001_ad5bae0acea940c4.txt to Eq. (11) of 001_ad5bae0acea940c4.txt, cumulative beta model Eq. (12) of 001_ad5bae0acea940c4.txt to Eq. (17) of 001_ad5bae0acea940c4.txt, Hazen
+coefficients Eq. (18) of 001_ad5bae0acea940c4.txt to Eq. (20) of 001_ad5bae0acea940c4.txt, regression coefficient Eq. (21) of 001_ad5bae0acea940c4.txt, accessible domain Fig. 8)
 and the bimodal description (size ratio λ, volume ratio ξ) of 000_2cedc098acbd866b.txt.
 
 Conventions: models are written in particle **diameters** ``d`` (as seed 001);
