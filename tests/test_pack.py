@@ -267,7 +267,7 @@ def test_result_does_not_depend_on_the_clock(monkeypatch):
     from polypack.generate import lubachevsky as lub
 
     radii = np.where(np.arange(400) < 40, 3.0, 1.0)
-    opts = dict(chunk_collisions=20_000, growth_rate=0.005)
+    opts = dict(tuning=pp.generate.PackTuning(chunk_collisions=20_000), growth_rate=0.005)
     ref = pp.pack(radii, 0.55, seed=4, **opts)
     assert ref.meta["collisions"] > 3 * 20_000  # several chunks
 
@@ -322,7 +322,7 @@ def test_error_below_continuation_fraction():
 
 
 def test_time_budget_and_interrupt(monkeypatch):
-    pk = pp.pack(np.ones(2000), "jammed", seed=1, max_seconds=0.3, chunk_collisions=20000)
+    pk = pp.pack(np.ones(2000), "jammed", seed=1, max_seconds=0.3, tuning=pp.generate.PackTuning(chunk_collisions=20000))
     assert pk.meta["status"] == "time_budget"
     assert pk.min_gap() >= 0.0
 
@@ -338,7 +338,7 @@ def test_time_budget_and_interrupt(monkeypatch):
 
     monkeypatch.setattr(edmd, "run_chunk", interrupting)
     with pytest.raises(pp.errors.Interrupted) as info:
-        pp.pack(np.ones(300), 0.6, seed=1, chunk_collisions=2000)
+        pp.pack(np.ones(300), 0.6, seed=1, tuning=pp.generate.PackTuning(chunk_collisions=2000))
     assert calls["n"] == 2  # stopped at the safe point right after the chunk it arrived in
     part = info.value.partial
     assert part.meta["status"] == "interrupted"

@@ -225,3 +225,16 @@ def test_entry_point_plugin_adds_an_analysis(tmp_path):
     # without the plugin on the path the study is rejected with the allowed analyses
     with pytest.raises(InvalidInputError, match="analysis.largest: unknown analysis; allowed: rdf"):
         load_study(study)
+
+
+def test_analyze_runs_any_registered_analysis(toy, tmp_path, capsys):
+    pk = pp.Packing(np.array([[1.0, 1.0, 1.0], [3.0, 3.0, 3.0], [1.0, 3.0, 1.0]]), [0.5, 0.25, 0.25], 6.0)
+    pp.io.write(tmp_path / "p.gsd", pk)
+    main(["analyze", str(tmp_path / "p.gsd"), "--run", "toy:bins=2", "--run", "contacts:tolerance=0.1",
+          "--json", str(tmp_path / "r.json")])
+    res = json.loads((tmp_path / "r.json").read_text())["registered"]
+    assert res["toy"]["max_radius"] == 0.5 and sum(res["toy"]["count"]) == 3
+    assert res["contacts"]["coordination"] == 0.0  # nobody within 10 % of contact
+    with pytest.raises(SystemExit):
+        main(["analyze", str(tmp_path / "p.gsd"), "--run", "toy:bins=0"])
+    assert "analysis.toy.bins = 0: must be an integer >= 1" in capsys.readouterr().err

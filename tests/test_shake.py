@@ -10,7 +10,7 @@ import pytest
 import polypack as pp
 from polypack.analysis import ContactValueMonitor
 from polypack.errors import InvalidInputError, OverlapError
-from polypack.generate.shake import shake
+from polypack.generate.shake import ShakeTuning, shake
 from polypack.neighbors import pairs_within
 
 METHODS = ["paper", "collision", "metropolis"]
@@ -164,7 +164,7 @@ def test_reproducible_for_a_seed(packs):
         for key in ("acceptance_rate", "mean_displacement", "trials", "seed"):
             assert a.meta["shake"][key] == b.meta["shake"][key]
     ss = np.random.SeedSequence(5)
-    assert np.array_equal(shake(pk, 2, seed=ss).positions, shake(pk, 2, seed=np.random.SeedSequence(5)).positions)
+    assert np.array_equal(shake(pk, global_shakes=2, seed=ss).positions, shake(pk, global_shakes=2, seed=np.random.SeedSequence(5)).positions)
 
 
 def test_per_species_radius_and_trials(packs):
@@ -329,8 +329,8 @@ def test_result_independent_of_skin(packs):
     so any skin gives bit-identical trajectories (a missing neighbour would show up here)."""
     for which, method in (("bi", "metropolis"), ("fcc", "collision"), ("sc", "paper")):
         pk = packs[which]
-        a = shake(pk, global_shakes=6, method=method, seed=9, skin=0.12, monitor_every=0)
-        b = shake(pk, global_shakes=6, method=method, seed=9, skin=0.25, monitor_every=0)
+        a = shake(pk, global_shakes=6, method=method, seed=9, tuning=ShakeTuning(skin=0.12), monitor_every=0)
+        b = shake(pk, global_shakes=6, method=method, seed=9, tuning=ShakeTuning(skin=0.25), monitor_every=0)
         assert a.meta["shake"]["rebuilds"] != b.meta["shake"]["rebuilds"] or which == "sc"
         assert np.array_equal(a.positions, b.positions)
 
@@ -340,12 +340,12 @@ def test_cells_and_verlet_identical(method):
     """Linked cells and the Verlet list are two exact overlap tests: identical trajectories."""
     pk = simple_cubic(0.3, n1=6)
     kw = dict(global_shakes=8, method=method, shake_radius=0.4, seed=21, monitor_every=0)
-    a = shake(pk, neighbours="cells", **kw)
-    b = shake(pk, neighbours="verlet", **kw)
+    a = shake(pk, tuning=ShakeTuning(neighbours="cells"), **kw)
+    b = shake(pk, tuning=ShakeTuning(neighbours="verlet"), **kw)
     assert a.meta["shake"]["final_neighbour_structure"] == "cells"
     assert b.meta["shake"]["final_neighbour_structure"] == "verlet"
     assert np.array_equal(a.positions, b.positions)
     assert a.meta["shake"]["acceptance_rate"] == b.meta["shake"]["acceptance_rate"]
     assert a.min_gap() >= 0.0
     with pytest.raises(InvalidInputError, match="neighbours"):
-        shake(pk, global_shakes=1, neighbours="octree")
+        shake(pk, global_shakes=1, tuning=ShakeTuning(neighbours="octree"))

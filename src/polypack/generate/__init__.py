@@ -7,13 +7,15 @@ from __future__ import annotations
 
 from importlib import import_module as _import_module
 
-__all__ = ["pack", "shake", "scrm", "deposit"]
+__all__ = ["pack", "shake", "scrm", "deposit", "PackTuning", "ShakeTuning"]
 
 _LAZY = {
     "pack": ("polypack.generate.lubachevsky", "pack"),
     "shake": ("polypack.generate.shake", "shake"),
     "scrm": ("polypack.generate.shake", "scrm"),
     "deposit": ("polypack.generate.deposit", "deposit"),
+    "PackTuning": ("polypack.generate.lubachevsky", "PackTuning"),
+    "ShakeTuning": ("polypack.generate.shake", "ShakeTuning"),
 }
 
 

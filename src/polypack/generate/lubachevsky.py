@@ -11,8 +11,10 @@ rescaling the velocities at every synchronisation.  The numerical engine lives i
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -22,22 +24,8 @@ from ..errors import InfeasibleError, Interrupted, InvalidInputError, OverlapErr
 from ..geometry import unit_ball_volume
 from ..packing import Packing
 
-__all__ = ["pack", "carnahan_starling"]
+__all__ = ["pack", "PackTuning", "carnahan_starling"]
 
-_DEFAULTS = dict(
-    species=None,
-    max_pressure=1e6,
-    pressure_window=None,
-    skin=None,
-    dilute_skin=None,
-    chunk_collisions=None,
-    jammed_reference_fraction=0.5,
-    max_events=None,
-    sync_every=None,
-    margin_cap=1.0,
-    fast_growth=10.0,
-    fast_growth_until=0.3,
-)
 
 _STATUS = {0: "running", 1: "target", 2: "jammed", 3: "box_limit", 4: "event_budget"}
 
@@ -126,16 +114,52 @@ def _parse_sizes(sizes, species):
     return radii, sp, start
 
 
+@dataclass(frozen=True)
+class PackTuning:
+    """Speed knobs of :func:`pack`: how fast a pack is made, not which statistics it has.
+
+    Different values give different (equally valid) trajectories for the same seed; the
+    defaults are tuned for speed. See :func:`pack` for their meaning.
+
+    Attributes
+    ----------
+    skin : float, optional
+        Neighbour-shell margin as a fraction of the radius (default :func:`default_skin`).
+    dilute_skin : float, optional
+        The same at the start of the run (default ``skin``).
+    chunk_collisions : int, optional
+        Collisions per compiled call between progress updates and budget or Ctrl-C
+        checks (default ``20 N`` clipped to [2e5, 1e7]).
+    sync_every : int, optional
+        Collisions between full synchronisations (default ``4 N``).
+    margin_cap : float
+        Shell margin of a large sphere at most this many times that of a median sphere.
+    """
+
+    skin: float | None = None
+    dilute_skin: float | None = None
+    chunk_collisions: int | None = None
+    sync_every: int | None = None
+    margin_cap: float = 1.0
+
+
 def pack(
     sizes,
     volume_fraction=0.6,
     *,
     seed=None,
+    species=None,
     growth_rate=None,
     max_collisions=None,
     max_seconds=None,
+    max_events=None,
+    max_pressure=1e6,
+    pressure_window=None,
+    jammed_reference_fraction=0.5,
+    fast_growth=10.0,
+    fast_growth_until=0.3,
+    tuning=None,
     progress=None,
-    **options,
 ) -> Packing:
     """Random dense pack of polydisperse spheres by Lubachevsky–Stillinger growth (exact EDMD).
 
@@ -170,23 +194,27 @@ def pack(
     progress : bool, optional
         Progress bar (volume fraction, reduced pressure, collisions/s); default:
         only on a terminal.
-    **options
-        ``species`` (with an array of radii), ``max_pressure`` (jamming threshold on
-        the reduced pressure ``Z = PV/(NkT)``, default 1e6), ``pressure_window``
-        (collisions per pressure estimate, default ``N``), ``skin`` (neighbour shell
-        margin as a fraction of the radius; default :func:`default_skin`: 0.25 for
-        equal spheres, up to 0.6 when most of the volume is in spheres much larger than
-        the median one, whose mobile fines make shell exits the main cost),
-        ``dilute_skin`` (the same at the start of the run, default ``skin``), ``chunk_collisions``
-        (collisions per compiled call between progress updates and budget or Ctrl-C checks,
-        default ``20N`` clipped to [2e5, 1e7]; the trajectory depends on it, never on the clock),
-        ``jammed_reference_fraction`` (0.5), ``max_events``, ``sync_every`` (collisions
-        between full synchronisations with kinetic-energy reset, default ``4N``),
-        ``margin_cap`` (shell margin of a large sphere at most this many times the
-        margin of a median sphere, default 1), ``fast_growth`` (growth this many times
-        faster than ``growth_rate`` during the dilute start, default 10; 1 grows at one
-        rate throughout) and ``fast_growth_until`` (the volume fraction where the fast
-        start ends, default 0.3, at most half the target).
+    species : array_like of int, optional
+        Species of each sphere when ``sizes`` is an array of radii.
+    max_events : int, optional
+        Event budget (collisions and shell exits); status ``"event_budget"``.
+    max_pressure : float
+        Jamming threshold on the reduced pressure ``Z = PV/(NkT)`` (default 1e6, > 3).
+    pressure_window : int, optional
+        Collisions per pressure estimate (default ``N``).
+    jammed_reference_fraction : float
+        Reference fraction of the jamming estimate (0.5).
+    fast_growth : float
+        Growth this many times faster than ``growth_rate`` during the dilute start
+        (default 10; 1 grows at one rate throughout).
+    fast_growth_until : float
+        Volume fraction where the fast start ends (default 0.3, at most half the target).
+    tuning : PackTuning, optional
+        Speed knobs (neighbour-shell margins, chunk size, synchronisation period):
+        ``skin`` defaults to :func:`default_skin` (0.25 for equal spheres, up to 0.6 when
+        most of the volume is in spheres much larger than the median one, whose mobile
+        fines make shell exits the main cost); the trajectory depends on
+        ``chunk_collisions``, never on the clock.
 
     Returns
     -------
@@ -234,11 +262,13 @@ def pack(
     """
     from .._kernels import edmd
 
-    unknown = set(options) - set(_DEFAULTS)
-    if unknown:
-        raise InvalidInputError(f"unknown option(s) {sorted(unknown)}; allowed: {sorted(_DEFAULTS)}")
-    opt = dict(_DEFAULTS)
-    opt.update(options)
+    if tuning is None:
+        tuning = PackTuning()
+    elif not isinstance(tuning, PackTuning):
+        raise InvalidInputError(f"tuning={tuning!r}: must be a polypack.generate.PackTuning")
+    opt = dict(species=species, max_pressure=max_pressure, pressure_window=pressure_window,
+               jammed_reference_fraction=jammed_reference_fraction, max_events=max_events,
+               fast_growth=fast_growth, fast_growth_until=fast_growth_until, **dataclasses.asdict(tuning))
     wall0 = time.perf_counter()
 
     radii, species, start = _parse_sizes(sizes, opt["species"])

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -65,25 +66,40 @@ def _check_int(name, value, minimum):
     return int(value)
 
 
+@dataclass(frozen=True)
+class ShakeTuning:
+    """Speed knobs of :func:`shake`: both neighbour structures give identical results.
+
+    Attributes
+    ----------
+    skin : float, optional
+        Verlet-list margin (see :func:`shake`).
+    neighbours : {"auto", "verlet", "cells"}
+        Neighbour structure for the overlap test.
+    """
+
+    skin: float | None = None
+    neighbours: str = "auto"
+
+
 def shake(
     packing,
+    *,
     global_shakes=60,
     shake_radius=None,
     max_trials=None,
     method="paper",
     seed=None,
-    progress=None,
-    *,
     order=None,
     adaptive=False,
     adapt_shakes=None,
     adapt_factor=0.05,
     target_acceptance=0.4,
-    skin=None,
-    neighbours="auto",
     monitor=None,
     monitor_every=None,
     callback=None,
+    tuning=None,
+    progress=None,
 ) -> Packing:
     """Monte-Carlo shaking of a hard-sphere pack (§3.2 of 000_2cedc098acbd866b.txt).
 
@@ -146,17 +162,16 @@ def shake(
         Growth factor per visit of the seed's adaptation (default 0.05).
     target_acceptance : float
         Target acceptance of the Metropolis adaptation (default 0.4).
-    skin : float, optional
-        Relative Verlet skin ``s`` (pairs with ``d <= (1 + s)(r_i + r_j)`` are
-        listed); default ``max(0.5, 4 max R_sh)``, capped by the box, and widened
-        while running if the list has to be rebuilt often.  Affects speed only: the
-        overlap test is exact for any skin, so results do not depend on it.
-    neighbours : {"auto", "verlet", "cells"}
-        Neighbour structure for the overlap test: the size-aware Verlet list, or
-        linked cell lists of side ``2 r_max`` plus the largest step (cheaper for large
-        steps, e.g. Metropolis in a dilute fluid, but only for similar sizes).
-        ``"auto"`` uses cells when ``r_max <= 2 r_min`` and ``max R_sh >= 0.25``.
-        Both tests are exact, so the results are identical.
+    tuning : ShakeTuning, optional
+        Speed knobs. ``skin``: relative Verlet skin ``s`` (pairs with
+        ``d <= (1 + s)(r_i + r_j)`` are listed); default ``max(0.5, 4 max R_sh)``,
+        capped by the box, and widened while running if the list has to be rebuilt
+        often; the overlap test is exact for any skin, so results do not depend on it.
+        ``neighbours``: ``"verlet"`` (the size-aware Verlet list), ``"cells"`` (linked
+        cell lists of side ``2 r_max`` plus the largest step, cheaper for large steps,
+        e.g. Metropolis in a dilute fluid, but only for similar sizes) or ``"auto"``
+        (cells when ``r_max <= 2 r_min`` and ``max R_sh >= 0.25``); both tests are
+        exact, so the results are identical.
     monitor : callable, optional
         Convergence monitor ``monitor(packing) -> {key: float}``, e.g.
         :class:`polypack.analysis.ContactValueMonitor` (the contact values
@@ -214,6 +229,11 @@ def shake(
         )
     if packing.n < 2:
         raise InvalidInputError(f"shake needs at least 2 spheres, got {packing.n}")
+    if tuning is None:
+        tuning = ShakeTuning()
+    elif not isinstance(tuning, ShakeTuning):
+        raise InvalidInputError(f"tuning={tuning!r}: must be a polypack.generate.ShakeTuning")
+    skin, neighbours = tuning.skin, tuning.neighbours
     if method not in _METHOD_CODE:
         raise InvalidInputError(f"method={method!r}: allowed are {', '.join(map(repr, METHODS))}")
     global_shakes = _check_int("global_shakes", global_shakes, 0)
@@ -522,16 +542,31 @@ def _check_shake_options(options):
 def scrm(
     sizes,
     volume_fraction=0.6,
-    seed=None,
     *,
+    seed=None,
     growth_steps=10,
     start_fraction=None,
     schedule=None,
     stage_shakes=1,
     global_shakes=60,
     growth_rate=None,
+    max_pressure=None,
+    pressure_window=None,
+    fast_growth=None,
+    fast_growth_until=None,
+    pack_tuning=None,
+    shake_radius=None,
+    max_trials=None,
+    method=None,
+    order=None,
+    adaptive=None,
+    adapt_shakes=None,
+    adapt_factor=None,
+    target_acceptance=None,
+    shake_tuning=None,
+    monitor=None,
+    monitor_every=None,
     progress=None,
-    **shake_options,
 ) -> Packing:
     """Shaking collective rearrangement model (SCRM, §3.2 of 000_2cedc098acbd866b.txt).
 
@@ -560,13 +595,18 @@ def scrm(
         Global shakes after each growth stage (default 1).
     global_shakes : int
         ``M``, global shakes at the target (default 60).
-    growth_rate : float, optional
-        Passed to :func:`polypack.pack`.
+    growth_rate, max_pressure, pressure_window, fast_growth, fast_growth_until : optional
+        Options of every growth stage, as for :func:`polypack.pack` (``None``: its default).
+    pack_tuning : PackTuning, optional
+        Speed knobs of the growth stages (``tuning`` of :func:`polypack.pack`).
+    shake_radius, max_trials, method, order, adaptive, adapt_shakes, adapt_factor, target_acceptance : optional
+        Options of every shaking stage, as for :func:`shake` (``None``: its default).
+    shake_tuning : ShakeTuning, optional
+        Speed knobs of the shaking stages (``tuning`` of :func:`shake`).
+    monitor, monitor_every : optional
+        Convergence monitor of the final ``M`` global shakes (see :func:`shake`).
     progress : bool, optional
         Progress bar over stages.
-    **shake_options
-        Passed to :func:`shake` (``method``, ``shake_radius``, ``max_trials``,
-        ``order``, ``adaptive``, ``skin``, ``monitor_every``, ...).
 
     Returns
     -------
@@ -609,9 +649,20 @@ def scrm(
             raise InvalidInputError(f"schedule={schedule!r}: fractions must increase")
         if abs(fractions[-1] - c) > 1e-12:
             raise InvalidInputError(f"schedule ends at {fractions[-1]!r}; it must end at volume_fraction={c!r}")
-    for key in ("global_shakes", "seed", "progress"):
-        if key in shake_options:
-            raise InvalidInputError(f"{key} is an scrm argument; do not pass it among the shake options")
+    given = dict(shake_radius=shake_radius, max_trials=max_trials, method=method, order=order, adaptive=adaptive,
+                 adapt_shakes=adapt_shakes, adapt_factor=adapt_factor, target_acceptance=target_acceptance)
+    shake_options = {k: v for k, v in given.items() if v is not None}
+    if shake_tuning is not None:
+        shake_options["tuning"] = shake_tuning
+    if monitor is not None:
+        shake_options["monitor"] = monitor
+    if monitor_every is not None:
+        shake_options["monitor_every"] = monitor_every
+    grow = dict(max_pressure=max_pressure, pressure_window=pressure_window, fast_growth=fast_growth,
+                fast_growth_until=fast_growth_until)
+    pack_options = {k: v for k, v in grow.items() if v is not None}
+    if pack_tuning is not None:
+        pack_options["tuning"] = pack_tuning
     _check_shake_options(shake_options)
     ss = as_seed_sequence(seed)
     children = ss.spawn(2 * len(fractions) + 1)
@@ -628,7 +679,8 @@ def scrm(
                 where = f"in growth stage {s_i + 1} of {len(fractions)} (to {frac:.6g})"
                 _interrupt.check(f"scrm interrupted {where}", partial=None if s_i == 0 else pk)
                 t0 = time.perf_counter()
-                pk = pack(pk, volume_fraction=frac, seed=children[2 * s_i], growth_rate=growth_rate, progress=False)
+                pk = pack(pk, volume_fraction=frac, seed=children[2 * s_i], growth_rate=growth_rate,
+                          progress=False, **pack_options)
                 t1 = time.perf_counter()
                 reached = pk.volume_fraction
                 status = pk.meta.get("status")
@@ -677,7 +729,7 @@ def scrm(
         "stages": stages,
         "seed": seed_record(ss),
         "shake_options": {k: (v if isinstance(v, (int, float, str, bool, type(None))) else repr(v))
-                          for k, v in shake_options.items() if k != "monitor"},
+                          for k, v in shake_options.items() if k not in ("monitor", "tuning", "monitor_every")},
         "wall_time": time.perf_counter() - wall0,
     }
     pk.meta = meta
