@@ -142,6 +142,15 @@ class PackTuning:
     sync_every: int | None = None
     margin_cap: float = 1.0
 
+    def __post_init__(self):
+        from .. import _validate as v
+
+        for name, check in (("skin", v.positive), ("dilute_skin", v.positive), ("chunk_collisions", v.int_min(1)),
+                            ("sync_every", v.int_min(0)), ("margin_cap", v.positive)):
+            value = getattr(self, name)
+            if value is not None:
+                object.__setattr__(self, name, v.check(name, value, check))
+
 
 def pack(
     sizes,

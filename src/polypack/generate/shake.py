@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import _interrupt
+from .. import _validate as _v
 from .._util import as_seed_sequence, progress_bar, seed_record
 from ..errors import InfeasibleError, Interrupted, InvalidInputError, OverlapError
 from ..packing import Packing
@@ -56,14 +57,8 @@ def _per_species(name, value, n_species, kind=float):
 
 
 def _check_int(name, value, minimum):
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        if isinstance(value, float) and value.is_integer():
-            value = int(value)
-        else:
-            raise InvalidInputError(f"{name}={value!r}: must be an integer >= {minimum}")
-    if value < minimum:
-        raise InvalidInputError(f"{name}={value!r}: must be an integer >= {minimum}")
-    return int(value)
+    """An integer ``>= minimum`` (the shared check of :mod:`polypack._validate`)."""
+    return int(_v.check(name, value, _v.int_min(minimum)))
 
 
 @dataclass(frozen=True)
@@ -80,6 +75,11 @@ class ShakeTuning:
 
     skin: float | None = None
     neighbours: str = "auto"
+
+    def __post_init__(self):
+        if self.skin is not None:
+            object.__setattr__(self, "skin", _v.check("skin", self.skin, _v.positive))
+        _v.check("neighbours", self.neighbours, _v.choice("auto", "verlet", "cells"))
 
 
 def shake(

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._util import as_seed_sequence, seed_record
+from .. import _validate as _v
 from ..errors import InfeasibleError, InvalidInputError
 from .models import Mixture, SizeDistribution, uv_mean_volume, uv_ppf
 
@@ -26,9 +27,8 @@ COUNT_BASES = ("median", "mean")
 
 
 def _check_int(name, v, lo=1):
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
-        raise InvalidInputError(f"{name}={v!r}: must be an integer >= {lo}")
-    return int(v)
+    """An integer ``>= lo`` (the shared check of :mod:`polypack._validate`)."""
+    return int(_v.check(name, v, _v.int_min(lo)))
 
 
 def class_bounds(model, n_classes=10, spacing="geometric"):
