@@ -304,7 +304,7 @@ def test_infeasible_target_ends_jammed():
         ((np.array([1.0, np.nan, 1.0]),), {}, pp.InvalidInputError),
         ((np.ones(10), 1.2), {}, pp.InvalidInputError),
         ((np.ones(10), "max"), {}, pp.InvalidInputError),
-        ((np.ones(10),), {"bogus": 1}, pp.InvalidInputError),
+        ((np.ones(10),), {"bogus": 1}, TypeError),  # explicit keyword-only options
         ((np.ones(10),), {"growth_rate": -1.0}, pp.InvalidInputError),
         ((np.r_[10.0, np.ones(5)], 0.5), {}, pp.InfeasibleError),
         ((10,), {}, pp.InvalidInputError),
