@@ -24,7 +24,19 @@ FACTORIES = {
     "ShellCount": lambda: pp.analysis.ShellCount(r_max=1.5, dr=0.1),
     "Contacts": lambda: pp.analysis.Contacts(tolerance=0.5),
     "PoreSizes": lambda: pp.analysis.PoreSizes(n_points=500, seed=1),
+    "DepositStatistics": lambda: pp.analysis.deposits.DepositStatistics(margin=1.0),
 }
+
+
+def _deposit(jitter_seed=0):
+    """2D disks on a square grid resting on a floor: x periodic, y walls (a deposit)."""
+    g = np.array([(i + 0.5, j + 0.5) for i in range(10) for j in range(12)])
+    g = g + np.random.default_rng(jitter_seed).uniform(-0.01, 0.01, g.shape)
+    return pp.Packing(g, np.full(len(g), 0.48), [10.0, 12.0], periodic=(True, False))
+
+
+# the pack an estimator is tested on (default: _pack, 3D periodic)
+PACKS = {"DepositStatistics": _deposit}
 
 
 def _all_estimators():
@@ -86,7 +98,8 @@ def test_estimator_protocol(name):
             getattr(est, r)
     assert est.n_realizations == 0
     # 2. compute returns the estimator
-    pk = _pack()
+    make = PACKS.get(name, _pack)
+    pk = make()
     assert est.compute(pk) is est and est.n_realizations == 1
     # 3. cached: the same object on a second access, arrays read-only
     values = {}
@@ -101,11 +114,11 @@ def test_estimator_protocol(name):
         values[r] = v
     assert values
     # 4. a new compute invalidates the cache; reset=False accumulates
-    est.compute(_pack(1))
+    est.compute(make(1))
     assert est.n_realizations == 1
     r0 = next(iter(values))
     assert getattr(est, r0) is not values[r0]
-    est.compute(_pack(2), reset=False)
+    est.compute(make(2), reset=False)
     assert est.n_realizations == 2
     # 5. parameters are read-only
     for p in cls._params:
