@@ -83,7 +83,9 @@ def fingerprint_run(study: dict, out: Path) -> dict:
             h.update(np.ascontiguousarray(arr).tobytes())
         res["packs"].append({"arrays": h.hexdigest(), "meta": _digest(_scrub(pk.meta))})
     curves = json.loads((out / "ensemble" / "curves.json").read_text())
-    res["curves"] = _digest(curves)
+    # the averaged curves and their bands (bookkeeping keys of curves.json may be added)
+    res["curves"] = _digest(curves["analyses"])
+    res["ci_factor"] = curves["ci_factor"]
     with open(out / "summary.csv", newline="") as fh:
         rows = [{k: v for k, v in r.items() if not _volatile(k)} for r in csv.DictReader(fh)]
     res["summary"] = _digest(rows)

@@ -25,5 +25,6 @@ def test_study_results_match_the_golden_record(fresh, name):
     assert got["packs"] == gold["packs"], "pack arrays or their metadata changed"
     assert got["records"] == gold["records"], "realization records changed"
     assert got["curves"] == gold["curves"], "ensemble curves changed"
+    assert got["ci_factor"] == gold["ci_factor"]
     assert got["summary_columns"] == gold["summary_columns"], "summary.csv columns changed"
     assert got["summary"] == gold["summary"], "summary.csv values changed"
