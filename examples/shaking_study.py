@@ -82,13 +82,13 @@ def main():
             t0 = time.perf_counter()
             crm = pp.pack(radii, volume_fraction=c, seed=s_pack)
             # convergence monitor with the seed's estimator, every 3 global shakes
-            monitor = dict(monitor_every=3, monitor_options=SEED_ESTIMATOR) if (c == 0.575 and r == 0) else \
-                dict(monitor_every=0)
+            monitor = dict(monitor=pp.analysis.ContactValueMonitor(**SEED_ESTIMATOR), monitor_every=3) \
+                if (c == 0.575 and r == 0) else {}
             shaken = pp.shake(crm, seed=s_shake, **monitor, **SHAKE)
             if c == 0.575 and r == 0:
                 mon = shaken.meta["shake"]["monitor"]
                 conv = list(zip(mon["global_shake"], mon["contact_value"]["0-0"]))
-            scrm = pp.scrm(radii, volume_fraction=c, seed=s_scrm, global_shakes=60, monitor_every=0,
+            scrm = pp.scrm(radii, volume_fraction=c, seed=s_scrm, global_shakes=60,
                            shake_radius=0.02, max_trials=150)
             for name, pk in zip(protocols, (crm, shaken, scrm)):
                 rdf[c][name].compute(pk, reset=False)
@@ -100,7 +100,7 @@ def main():
 
     # a rapidly grown (locked) CRM pack for Fig. 4
     fast = pp.pack(radii, volume_fraction=0.6, seed=root.spawn(1)[0], growth_rate=1.0)
-    fast_shaken = pp.shake(fast, seed=3, monitor_every=0, **SHAKE)
+    fast_shaken = pp.shake(fast, seed=3, **SHAKE)
     w_fast = {"CRM (fast growth)": WindowCounts(window_radius=2.5).compute(fast),
               "CRM (fast) + shaking": WindowCounts(window_radius=2.5).compute(fast_shaken)}
 

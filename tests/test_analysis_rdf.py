@@ -228,7 +228,7 @@ def test_bad_input():
     empty = pp.Packing(np.zeros((0, 3)), np.zeros(0), 5.0)
     with pytest.raises(InvalidInputError, match="at least 2 spheres"):
         pp.analysis.RDF(r_max=2.0, dr=0.1).compute(empty)
-    with pytest.raises(InvalidInputError, match="no results"):
+    with pytest.raises(pp.NotComputedError, match="RDF.g is not computed yet"):
         pp.analysis.RDF(r_max=2.0, dr=0.1).g
     with pytest.raises(InvalidInputError, match="Packing"):
         pp.analysis.RDF(r_max=2.0, dr=0.1).compute(np.zeros((4, 3)))

@@ -120,7 +120,7 @@ def test_scrm_never_carries_on_after_an_interrupted_growth_stage(monkeypatch):
 
 def test_scrm_rejects_unknown_shake_options_before_growing(monkeypatch):
     calls = _sigint_on_call(monkeypatch, edmd, "run_chunk", 10**9)
-    with pytest.raises(pp.InvalidInputError, match="bogus"):
+    with pytest.raises(TypeError, match="bogus"):  # explicit keyword-only options: rejected at the call
         pp.scrm(np.ones(50), 0.5, seed=1, bogus=3)
     with pytest.raises(pp.InvalidInputError, match="method"):
         pp.scrm(np.ones(50), 0.5, seed=1, method="nope")

@@ -8,6 +8,7 @@ import pytest
 
 import polypack as pp
 from polypack._kernels import edmd
+from polypack.generate import PackTuning
 from polypack.generate.lubachevsky import carnahan_starling as module_carnahan_starling
 
 
@@ -303,7 +304,7 @@ def test_result_does_not_depend_on_the_clock(monkeypatch):
     from polypack.generate import lubachevsky as lub
 
     radii = np.where(np.arange(400) < 40, 3.0, 1.0)
-    opts = dict(chunk_collisions=20_000, growth_rate=0.005)
+    opts = dict(tuning=pp.generate.PackTuning(chunk_collisions=20_000), growth_rate=0.005)
     ref = pp.pack(radii, 0.55, seed=4, **opts)
     assert ref.meta["collisions"] > 3 * 20_000  # several chunks
 
@@ -340,7 +341,7 @@ def test_infeasible_target_ends_jammed():
         ((np.array([1.0, np.nan, 1.0]),), {}, pp.InvalidInputError),
         ((np.ones(10), 1.2), {}, pp.InvalidInputError),
         ((np.ones(10), "max"), {}, pp.InvalidInputError),
-        ((np.ones(10),), {"bogus": 1}, pp.InvalidInputError),
+        ((np.ones(10),), {"bogus": 1}, TypeError),  # explicit keyword-only options
         ((np.ones(10),), {"growth_rate": -1.0}, pp.InvalidInputError),
         ((np.r_[10.0, np.ones(5)], 0.5), {}, pp.InfeasibleError),
         ((10,), {}, pp.InvalidInputError),
@@ -358,7 +359,7 @@ def test_error_below_continuation_fraction():
 
 
 def test_time_budget_and_interrupt(monkeypatch):
-    pk = pp.pack(np.ones(2000), "jammed", seed=1, max_seconds=0.3, chunk_collisions=20000)
+    pk = pp.pack(np.ones(2000), "jammed", seed=1, max_seconds=0.3, tuning=pp.generate.PackTuning(chunk_collisions=20000))
     assert pk.meta["status"] == "time_budget"
     assert pk.min_gap() >= 0.0
 
@@ -374,7 +375,7 @@ def test_time_budget_and_interrupt(monkeypatch):
 
     monkeypatch.setattr(edmd, "run_chunk", interrupting)
     with pytest.raises(pp.errors.Interrupted) as info:
-        pp.pack(np.ones(300), 0.6, seed=1, chunk_collisions=2000)
+        pp.pack(np.ones(300), 0.6, seed=1, tuning=pp.generate.PackTuning(chunk_collisions=2000))
     assert calls["n"] == 2  # stopped at the safe point right after the chunk it arrived in
     part = info.value.partial
     assert part.meta["status"] == "interrupted"
@@ -429,7 +430,7 @@ def test_default_skin_follows_the_volume_weighted_size():
 
 def test_event_budget_is_shared_by_all_chunks():
     """max_events caps the events of the whole run, however many chunks it takes."""
-    pk = pp.pack(np.ones(300), 0.6, seed=1, max_events=20000, chunk_collisions=1000)
+    pk = pp.pack(np.ones(300), 0.6, seed=1, max_events=20000, tuning=PackTuning(chunk_collisions=1000))
     assert pk.meta["status"] == "event_budget"
     assert pk.meta["events"] == 20000
     assert pk.meta["collisions"] > 1000  # several chunks
@@ -451,8 +452,10 @@ def test_pack_options_change_speed_not_physics(options):
     per collision only (the default_skin docstring claims it): the same equilibrium fluid
     pressure (Carnahan-Starling, written out here, within 2 %: the scatter of the mean
     over ~100 windows of 200-500 collisions is < 0.5 %) and the same target."""
-    pk = pp.pack(np.ones(500), 0.42, seed=3, growth_rate=0.05, **options)
-    pk2 = pp.pack(pk, 0.46, seed=4, growth_rate=0.001, **options)
+    tune = {k: v for k, v in options.items() if k != "pressure_window"}
+    kw = {k: v for k, v in options.items() if k == "pressure_window"}
+    pk = pp.pack(np.ones(500), 0.42, seed=3, growth_rate=0.05, tuning=PackTuning(**tune), **kw)
+    pk2 = pp.pack(pk, 0.46, seed=4, growth_rate=0.001, tuning=PackTuning(**tune), **kw)
     assert pk2.volume_fraction == pytest.approx(0.46, rel=1e-9)
     assert pk2.min_gap() >= 0.0
     h = np.array(pk2.meta["pressure_history"])
@@ -463,3 +466,20 @@ def test_pack_options_change_speed_not_physics(options):
     assert abs(np.mean(h[sel, 1] / cs) - 1.0) < 0.02
     if "pressure_window" in options:
         assert np.all(np.diff(h[:, 0]) > 0) and sel.sum() > 200  # 200-collision windows
+
+
+def test_packer_kernel_boundary_is_named():
+    """No raw slot numbers or status codes cross the packer's kernel boundary."""
+    import re
+    from pathlib import Path
+
+    from polypack._kernels import edmd
+
+    assert [int(s) for s in edmd.ChunkStatus] == list(range(5))
+    p = edmd.make_params(t_stop=1.0, max_collisions=2.0, max_pressure=3.0, pressure_window=4.0, t_ref=5.0,
+                         alpha=6.0, max_events=7.0, sync_every=8.0, dilute=9.0, margin_cap=10.0, speed=11.0)
+    assert p.shape == (edmd.N_PARAMS,)
+    assert [p[getattr(edmd, n)] for n in ("P_T_STOP", "P_MAX_COLLISIONS", "P_SPEED")] == [1.0, 2.0, 11.0]
+    src = Path(pp.generate.lubachevsky.__file__).read_text()
+    assert not re.search(r"\b(state|params)\[\d", src), "use the named slots edmd.S_* / edmd.P_*"
+    assert not re.search(r"\bcode == \d", src), "use edmd.ChunkStatus"

@@ -51,15 +51,15 @@ def test_cli_sieve_table(tmp_path):
 
 
 @pytest.mark.parametrize("argv,needle", [
-    (["--model", "gamma"], "model='gamma': unknown; allowed are cumulative_beta"),
+    (["--model", "gamma"], 'psd.model = "gamma": allowed: bimodal, cumulative_beta'),
     (["--model", "cb", "--a", "1", "--b", "1", "--span", "0.5", "--median", "2"],
-     "median: not a parameter of model 'cumulative_beta'; allowed: a, b, span"),
-    (["--model", "cb", "--a", "-1", "--b", "1", "--span", "0.5"], "a=-1.0"),
-    (["--model", "cb", "--a", "1", "--b", "1", "--span", "1.5"], "span=1.5"),
+     'psd.median: not a parameter of model "cumulative_beta"; allowed: a, b, span'),
+    (["--model", "cb", "--a", "-1", "--b", "1", "--span", "0.5"], "psd.a = -1.0: must be > 0"),
+    (["--model", "cb", "--a", "1", "--b", "1", "--span", "1.5"], "psd.span = 1.5: must be in (0, 1)"),
     (["--model", "cb", "--a", "1", "--b", "3", "--span", "0.98", "--max-total", "1000"], "more than max_total=1000"),
     (["--model", "mixture", "--sizes", "1,0.5", "--volume-fractions", "0.5,0.4"], "must sum to 1"),
     (["--model", "cb", "--a", "1", "--b", "1", "--span", "0.5", "--n", "10", "--n-classes", "4"],
-     "n_classes: only used with sampling = 'discretize'"),
+     'psd.n_classes: only used with psd.sampling = "discretize"'),
 ])
 def test_cli_bad_input_is_one_line_error(tmp_path, capsys, argv, needle):
     with pytest.raises(SystemExit) as e:

@@ -9,8 +9,10 @@ import pytest
 
 import _oracles as orc
 import polypack as pp
+from polypack.analysis import ContactValueMonitor
 from polypack.errors import InvalidInputError, OverlapError
-from polypack.generate.shake import shake
+from polypack.generate.shake import ShakeTuning, shake
+from polypack.neighbors import pairs_within
 
 METHODS = ["paper", "collision", "metropolis"]
 
@@ -166,14 +168,14 @@ def test_reproducible_for_a_seed(packs):
     pk = packs["bi"]
     for method in METHODS:
         a = shake(pk, global_shakes=3, method=method, seed=11)
-        b = shake(pk, global_shakes=3, method=method, seed=11, monitor_every=1)
+        b = shake(pk, global_shakes=3, method=method, seed=11, monitor=ContactValueMonitor(), monitor_every=1)
         c = shake(pk, global_shakes=3, method=method, seed=12)
         assert np.array_equal(a.positions, b.positions)
         assert not np.array_equal(a.positions, c.positions)
         for key in ("acceptance_rate", "mean_displacement", "trials", "seed"):
             assert a.meta["shake"][key] == b.meta["shake"][key]
     ss = np.random.SeedSequence(5)
-    assert np.array_equal(shake(pk, 2, seed=ss).positions, shake(pk, 2, seed=np.random.SeedSequence(5)).positions)
+    assert np.array_equal(shake(pk, global_shakes=2, seed=ss).positions, shake(pk, global_shakes=2, seed=np.random.SeedSequence(5)).positions)
 
 
 def test_per_species_radius_and_trials(packs):
@@ -224,7 +226,7 @@ def test_monitor_and_callback():
 
     pk = fcc(0.5, n1=3)
     seen = []
-    out = shake(pk, global_shakes=6, method="paper", seed=1, monitor_every=2,
+    out = shake(pk, global_shakes=6, method="paper", seed=1, monitor=ContactValueMonitor(), monitor_every=2,
                 callback=lambda m, p: seen.append((m, p.min_gap() >= 0)))
     mon = out.meta["shake"]["monitor"]
     assert mon["global_shake"] == [0, 2, 4, 6]
@@ -233,14 +235,21 @@ def test_monitor_and_callback():
     assert vals[-1] == pytest.approx(contact_value(out, width=0.05)[(0, 0)], rel=1e-12)
     assert seen == [(m, True) for m in range(1, 7)]
     seed_est = {"width": 0.005, "n_bins": 1, "degree": 0}  # the seed's histogram g(2a+), dr = 0.01a
-    first = shake(pk, global_shakes=3, method="paper", seed=1, monitor_options=seed_est)
+    first = shake(pk, global_shakes=3, method="paper", seed=1, monitor=ContactValueMonitor(**seed_est))
     mon = first.meta["shake"]["monitor"]
-    assert mon["global_shake"] == [0, 3]
+    assert mon["global_shake"] == [0, 3] and mon["options"] == seed_est
     assert mon["contact_value"]["0-0"][-1] == pytest.approx(contact_value(first, **seed_est)[(0, 0)], rel=1e-12)
-    with pytest.raises(InvalidInputError, match="monitor_options"):
-        shake(pk, global_shakes=1, monitor_options={"bins": 3})
-    none = shake(pk, global_shakes=2, seed=1, monitor_every=0)
+    with pytest.raises(TypeError):
+        ContactValueMonitor(bins=3)
+    with pytest.raises(InvalidInputError, match="monitor="):
+        shake(pk, global_shakes=1, monitor={"bins": 3})
+    none = shake(pk, global_shakes=2, seed=1, monitor=ContactValueMonitor(), monitor_every=0)
     assert none.meta["shake"]["monitor"] is None
+    # no monitor by default: the generators do not reach into the analysis layer
+    assert shake(pk, global_shakes=2, seed=1).meta["shake"]["monitor"] is None
+    # any callable is a monitor; its values are recorded under its name
+    own = shake(pk, global_shakes=2, seed=1, monitor=lambda p: {"gap": p.min_gap()})
+    assert own.meta["shake"]["monitor"]["values"]["gap"][-1] == pytest.approx(own.min_gap(), rel=1e-15)
 
 
 def test_zero_global_shakes_is_identity(packs):
@@ -365,8 +374,8 @@ def test_result_independent_of_skin(packs):
     so any skin gives bit-identical trajectories (a missing neighbour would show up here)."""
     for which, method in (("bi", "metropolis"), ("fcc", "collision"), ("sc", "paper")):
         pk = packs[which]
-        a = shake(pk, global_shakes=6, method=method, seed=9, skin=0.12, monitor_every=0)
-        b = shake(pk, global_shakes=6, method=method, seed=9, skin=0.25, monitor_every=0)
+        a = shake(pk, global_shakes=6, method=method, seed=9, tuning=ShakeTuning(skin=0.12), monitor_every=0)
+        b = shake(pk, global_shakes=6, method=method, seed=9, tuning=ShakeTuning(skin=0.25), monitor_every=0)
         assert a.meta["shake"]["rebuilds"] != b.meta["shake"]["rebuilds"] or which == "sc"
         assert np.array_equal(a.positions, b.positions)
 
@@ -376,12 +385,12 @@ def test_cells_and_verlet_identical(method):
     """Linked cells and the Verlet list are two exact overlap tests: identical trajectories."""
     pk = simple_cubic(0.3, n1=6)
     kw = dict(global_shakes=8, method=method, shake_radius=0.4, seed=21, monitor_every=0)
-    a = shake(pk, neighbours="cells", **kw)
-    b = shake(pk, neighbours="verlet", **kw)
+    a = shake(pk, tuning=ShakeTuning(neighbours="cells"), **kw)
+    b = shake(pk, tuning=ShakeTuning(neighbours="verlet"), **kw)
     assert a.meta["shake"]["final_neighbour_structure"] == "cells"
     assert b.meta["shake"]["final_neighbour_structure"] == "verlet"
     assert np.array_equal(a.positions, b.positions)
     assert a.meta["shake"]["acceptance_rate"] == b.meta["shake"]["acceptance_rate"]
     assert a.min_gap() >= 0.0
     with pytest.raises(InvalidInputError, match="neighbours"):
-        shake(pk, global_shakes=1, neighbours="octree")
+        shake(pk, global_shakes=1, tuning=ShakeTuning(neighbours="octree"))

@@ -40,7 +40,7 @@ def _err(data):
         ({"psd": {"model": "bimodal", "a": 2.0}}, 'psd.a: not a parameter of model "bimodal"'),
         ({"psd": {"model": "gamma"}}, 'psd.model = "gamma": allowed:'),
         ({"psd": {"n": 1}}, "psd.n = 1: must be an integer >= 2"),
-        ({"psd": {"n_classes": 5}}, 'psd.n_classes: only used with psd.sampling = "discretize"'),
+        ({"psd": {"n": 100, "n_classes": 5}}, 'psd.n_classes: only used with psd.sampling = "discretize"'),
         ({"psd": {"model": "uniform_volume", "d_min": 2.0, "d_max": 1.0}}, "psd.d_min = 2.0: must be < psd.d_max"),
         ({"analysis": {"rdf": {"r_max": -1.0}}}, "analysis.rdf.r_max = -1.0: must be > 0"),
         ({"analysis": {"rdf": {"rmax": 1.0}}}, "analysis.rdf.rmax: unknown key"),

@@ -36,7 +36,7 @@ if "NUMBA_CACHE_DIR" not in _os.environ:
 
 from importlib import import_module as _import_module
 
-from .errors import FormatError, InfeasibleError, InvalidInputError, OverlapError, PolypackError
+from .errors import FormatError, InfeasibleError, InvalidInputError, NotComputedError, OverlapError, PolypackError
 from .packing import Packing
 
 __version__ = "0.1.0"
@@ -48,6 +48,7 @@ __all__ = [
     "OverlapError",
     "FormatError",
     "InfeasibleError",
+    "NotComputedError",
     "pack",
     "shake",
     "scrm",

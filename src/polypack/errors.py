@@ -16,6 +16,7 @@ __all__ = [
     "OutputError",
     "Interrupted",
     "OverlapWarning",
+    "NotComputedError",
 ]
 
 
@@ -62,3 +63,7 @@ class Interrupted(KeyboardInterrupt):
 class OverlapWarning(UserWarning):
     """An analysis was given a pack with overlapping spheres (its numbers are not those of
     a hard-sphere pack); see :func:`polypack.analysis.overlap_policy`."""
+
+
+class NotComputedError(PolypackError, RuntimeError):
+    """A result of an estimator was asked for before ``compute(packing)`` was called."""

@@ -41,28 +41,36 @@ next to the results (:meth:`Study.write_resolved`).
 
 Schema
 ------
+Generated from the registry (:mod:`polypack.registry`; ``polypack.study.schema_doc()``
+prints it with every type, bound, default and doc). The built-ins:
+
 ``[study]``
     ``name`` (str, default: file stem), ``description`` (str), ``seed`` (int >= 0, default 0),
     ``realizations`` (P, int >= 1, default 1).
 ``[psd]``
-    ``model``: ``"bimodal"`` (``size_ratio``, ``volume_ratio``, ``d_large``, ``spread``),
-    ``"cumulative_beta"`` (``a``, ``b``, ``span`` or ``d_min``, ``d_max``), ``"uniform_volume"``
-    and ``"uniform_size"`` (``d_min``, ``d_max``, ``span``), ``"lognormal"`` (``median``,
-    ``sigma``, ``d_min``, ``d_max``, ``basis``), ``"normal"`` (``mean``, ``std``, ``d_min``,
-    ``d_max``, ``basis``), ``"monodisperse"`` (``d``).  Sizes are **diameters** as in
+    The one ``[psd]`` table shared with ``polypack psd`` (:func:`polypack.psd.config.resolve`):
+    ``model`` (default ``"bimodal"``): ``"bimodal"`` (``size_ratio``, ``volume_ratio``,
+    ``d_large``, ``spread``), ``"cumulative_beta"``/``"cb"`` (``a``, ``b``, ``span`` or ``d_min``,
+    ``d_max``), ``"uniform_volume"`` and ``"uniform_size"`` (``d_min``, ``d_max``, ``span``),
+    ``"lognormal"`` (``median``, ``sigma``, ``d_min``, ``d_max``, ``basis``), ``"normal"``
+    (``mean``, ``std``, ``d_min``, ``d_max``, ``basis``), ``"monodisperse"`` (``d``),
+    ``"mixture"`` (``sizes``, ``volume_fractions``, ``spread``), ``"sieve"`` (``sieve`` CSV path,
+    ``percent``); every model takes ``dim`` (3 spheres, 2 disks).  Sizes are **diameters** as in
     seed 001 (radii are half).  ``sampling = "sample"`` draws ``n`` particles
     (``method = "random" | "quantiles"``); ``sampling = "discretize"`` builds size classes
-    (``n_classes``, ``spacing``, ``min_per_class``, ``min_total``, ``max_total``), §1.2 of
-    001_ad5bae0acea940c4.txt.
+    (``n_classes``, ``spacing``, ``min_per_class``, ``min_total``, ``max_total``,
+    ``count_basis``), §1.2 of 001_ad5bae0acea940c4.txt; the default is ``"sample"`` unless
+    class keys are given without ``n``.
 ``[protocol]``
-    ``kind = "crm" | "scrm"``, ``volume_fraction`` (in (0, 1) or ``"jammed"``),
-    ``growth_rate`` (> 0), ``max_seconds`` (wall-clock budget of the growth, > 0),
-    ``global_shakes`` (M >= 0; for ``"crm"`` a positive M shakes the finished pack),
-    ``shake_radius`` (> 0), ``max_trials`` (>= 1), ``shake_method`` (``"paper"``, ``"collision"``,
-    ``"metropolis"``), ``adaptive`` (bool);
-    SCRM only: ``schedule`` (increasing volume fractions of the growth stages; the target is
-    appended), or ``growth_steps`` (>= 1) from ``start_fraction``; ``stage_shakes`` (global
-    shakes after each stage).
+    ``kind`` picks a registered protocol, which accepts only its own options (a key another
+    protocol uses is an error naming it).  ``"crm"``: ``volume_fraction`` (in (0, 1) or
+    ``"jammed"``), ``growth_rate`` (> 0), ``max_seconds`` (wall-clock budget of the growth,
+    > 0), ``global_shakes`` (M >= 0, default 0: a positive M shakes the finished pack),
+    ``shake_radius`` (> 0), ``max_trials`` (>= 1), ``shake_method`` (``"paper"``,
+    ``"collision"``, ``"metropolis"``), ``adaptive`` (bool).  ``"scrm"`` (default): the same
+    without ``max_seconds`` (M default 60), plus ``schedule`` (increasing volume fractions of
+    the growth stages; the target is appended), or ``growth_steps`` (>= 1) from
+    ``start_fraction``; ``stage_shakes`` (global shakes after each stage).
 ``[analysis.rdf]``
     ``r_max`` (> 0, user length units), ``dr`` (> 0), ``method``, ``scale``.
 ``[analysis.kfunction]``
@@ -85,284 +93,134 @@ from __future__ import annotations
 import copy
 import hashlib
 import json
-import math
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+from . import registry
 from ._util import atomic_open
+from ._validate import (  # noqa: F401  (re-exported: the checks used to live here)
+    Bad as _Bad,
+    boolean,
+    choice,
+    fmt as _fmt,
+    formats,
+    fraction_open,
+    int_min,
+    non_negative,
+    positive,
+    positive_or_list,
+    schedule,
+    size_ratio,
+    string,
+    type_name as _type_name,
+    volume_fraction,
+)
 from .errors import InvalidInputError
+from .registry import option
 
-__all__ = ["Study", "load_study", "validate", "versions", "SCHEMA", "PSD_MODELS"]
-
-_MISSING = object()
-
-
-# --------------------------------------------------------------------------- checks
-def _type_name(value):
-    return {bool: "boolean", int: "integer", float: "float", str: "string", list: "array", dict: "table"}.get(
-        type(value), type(value).__name__
-    )
-
-
-def _fmt(value):
-    if isinstance(value, str):
-        return repr(value).replace("'", '"')
-    return repr(value)
-
-
-class _Bad(Exception):
-    """Raised by a check with the reason; the caller adds the key path."""
-
-
-def _number(v):
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise _Bad(f"expected a number, got {_type_name(v)}")
-    v = float(v)
-    if not math.isfinite(v):
-        raise _Bad("must be finite")
-    return v
-
-
-def _integer(v):
-    if isinstance(v, bool) or not isinstance(v, int):
-        if isinstance(v, float) and v.is_integer():
-            return int(v)
-        raise _Bad(f"expected an integer, got {_type_name(v)}")
-    return v
-
-
-def positive(v):
-    v = _number(v)
-    if not v > 0:
-        raise _Bad("must be > 0")
-    return v
-
-
-def non_negative(v):
-    v = _number(v)
-    if v < 0:
-        raise _Bad("must be >= 0")
-    return v
-
-
-def fraction_open(v):
-    v = _number(v)
-    if not 0 < v < 1:
-        raise _Bad("must be in (0, 1)")
-    return v
-
-
-def size_ratio(v):
-    v = _number(v)
-    if not 0 < v <= 1:
-        raise _Bad("must be in (0, 1] (λ = a2/a1)")
-    return v
-
-
-def int_min(lo):
-    def check(v):
-        v = _integer(v)
-        if v < lo:
-            raise _Bad(f"must be an integer >= {lo}")
-        return v
-
-    check.__doc__ = f"integer >= {lo}"
-    return check
-
-
-def string(v):
-    if not isinstance(v, str):
-        raise _Bad(f"expected a string, got {_type_name(v)}")
-    return v
-
-
-def boolean(v):
-    if not isinstance(v, bool):
-        raise _Bad(f"expected true or false, got {_type_name(v)}")
-    return v
-
-
-def choice(*allowed):
-    def check(v):
-        if not isinstance(v, str) or v not in allowed:
-            raise _Bad(f"allowed: {', '.join(_fmt(a) for a in allowed)}")
-        return v
-
-    return check
-
-
-def volume_fraction(v):
-    if isinstance(v, str):
-        if v != "jammed":
-            raise _Bad('allowed: a number in (0, 1) or "jammed"')
-        return v
-    return fraction_open(v)
-
-
-def positive_or_list(v):
-    if isinstance(v, list):
-        if not v:
-            raise _Bad("must not be empty")
-        return [positive(x) for x in v]
-    return positive(v)
-
-
-def schedule(v):
-    if not isinstance(v, list):
-        raise _Bad(f"expected an array of volume fractions, got {_type_name(v)}")
-    out = [fraction_open(x) for x in v]
-    if any(b <= a for a, b in zip(out, out[1:])):
-        raise _Bad("volume fractions must increase")
-    return out
-
-
-_FORMATS = ("gsd", "xyz", "data", "vtp", "csv")
-
-
-def formats(v):
-    if not isinstance(v, list) or not all(isinstance(x, str) for x in v):
-        raise _Bad("expected an array of strings")
-    bad = [x for x in v if x not in _FORMATS]
-    if bad:
-        raise _Bad(f"unknown format {_fmt(bad[0])}; allowed: {', '.join(_fmt(a) for a in _FORMATS)}")
-    return ["gsd"] + [x for x in dict.fromkeys(v) if x != "gsd"]
+__all__ = ["Study", "load_study", "validate", "versions", "SCHEMA", "PSD_MODELS", "schema", "schema_doc"]
 
 
 # --------------------------------------------------------------------------- schema
 @dataclass(frozen=True)
-class Field:
-    """One key of a study table: its check (returns the normalised value) and default."""
+class StudyOptions:
+    """The ``[study]`` table."""
 
-    check: object
-    default: object = _MISSING  # _MISSING: required; None: optional, left out when unset
-    doc: str = ""
-
-
-PSD_MODELS = {
-    "bimodal": ("Bimodal", ("size_ratio", "volume_ratio", "d_large", "spread")),
-    "cumulative_beta": ("CumulativeBeta", ("a", "b", "span", "d_min", "d_max")),
-    "uniform_volume": ("UniformVolume", ("d_min", "d_max", "span")),
-    "uniform_size": ("UniformSize", ("d_min", "d_max", "span")),
-    "lognormal": ("LogNormal", ("median", "sigma", "d_min", "d_max", "basis")),
-    "normal": ("Normal", ("mean", "std", "d_min", "d_max", "basis")),
-    "monodisperse": ("Monodisperse", ("d",)),
-}
-
-_MODEL_DEFAULTS = {
-    "bimodal": {"size_ratio": 0.313, "volume_ratio": 0.333, "d_large": 1.0},
-    "cumulative_beta": {"a": 1.0, "b": 1.0},
-    "lognormal": {"median": 1.0, "sigma": 0.2},
-    "normal": {"mean": 1.0, "std": 0.1},
-    "monodisperse": {"d": 1.0},
-}
-
-_CLASS_KEYS = ("n_classes", "spacing", "min_per_class", "min_total", "max_total")
-
-SCHEMA = {
-    "study": {
-        "name": Field(string, None, "name used in file names and plots (default: the file stem)"),
-        "description": Field(string, ""),
-        "seed": Field(int_min(0), 0, "root seed; realization i uses SeedSequence(seed).spawn(P)[i]"),
-        "realizations": Field(int_min(1), 1, "number of realizations P"),
-    },
-    "psd": {
-        "model": Field(choice(*PSD_MODELS), "bimodal"),
-        "n": Field(int_min(2), None, "number of particles (sampling = 'sample', default 2000)"),
-        "sampling": Field(choice("sample", "discretize"), "sample"),
-        "method": Field(choice("random", "quantiles"), "random"),
-        # model parameters (checked against the model below)
-        "size_ratio": Field(size_ratio, None),
-        "volume_ratio": Field(positive, None),
-        "d_large": Field(positive, None),
-        "spread": Field(non_negative, None),
-        "a": Field(positive, None),
-        "b": Field(positive, None),
-        "span": Field(fraction_open, None),
-        "d_min": Field(positive, None),
-        "d_max": Field(positive, None),
-        "median": Field(positive, None),
-        "sigma": Field(positive, None),
-        "mean": Field(positive, None),
-        "std": Field(positive, None),
-        "basis": Field(choice("number", "volume"), None),
-        "d": Field(positive, None),
-        # size classes (sampling = 'discretize')
-        "n_classes": Field(int_min(1), None),
-        "spacing": Field(choice("geometric", "regular", "isochoric", "modes"), None),
-        "min_per_class": Field(int_min(1), None),
-        "min_total": Field(int_min(1), None),
-        "max_total": Field(int_min(2), None),
-    },
-    "protocol": {
-        "kind": Field(choice("crm", "scrm"), "scrm"),
-        "volume_fraction": Field(volume_fraction, 0.6),
-        "growth_rate": Field(positive, None),
-        "max_seconds": Field(positive, None),
-        "global_shakes": Field(int_min(0), None),
-        "shake_radius": Field(positive, None),
-        "max_trials": Field(int_min(1), None),
-        "shake_method": Field(choice("paper", "collision", "metropolis"), None),
-        "adaptive": Field(boolean, None),
-        "schedule": Field(schedule, None),
-        "growth_steps": Field(int_min(1), None),
-        "start_fraction": Field(fraction_open, None),
-        "stage_shakes": Field(int_min(0), None),
-    },
-    "analysis.rdf": {
-        "r_max": Field(positive, 3.0),
-        "dr": Field(positive, 0.02),
-        "method": Field(string, None),
-        "scale": Field(string, None),
-    },
-    "analysis.kfunction": {
-        "r_max": Field(positive, 3.0),
-        "dr": Field(positive, 0.02),
-        "scale": Field(string, None),
-    },
-    "analysis.windows": {
-        "window_radius": Field(positive_or_list, 2.5),
-        "reference": Field(string, None),
-    },
-    "analysis.contacts": {
-        "tolerance": Field(non_negative, 0.01),
-        "min_contacts": Field(int_min(0), None),
-    },
-    "analysis.pores": {
-        "n_points": Field(int_min(100), 100_000),
-        "n_grid": Field(int_min(10), None),
-    },
-    "output": {
-        "formats": Field(formats, ["gsd"]),
-        "plots": Field(boolean, True),
-        "plot_format": Field(choice("png", "pdf", "svg"), "png"),
-    },
-}
-
-ANALYSES = tuple(k.split(".", 1)[1] for k in SCHEMA if k.startswith("analysis."))
-_DEFAULT_SHAKES = {"crm": 0, "scrm": 60}
+    name: str = option(None, string, "name used in file names and plots (default: the file stem)")
+    description: str = option("", string, "free text")
+    seed: int = option(0, int_min(0), "root seed; realization i uses SeedSequence(seed).spawn(P)[i]")
+    realizations: int = option(1, int_min(1), "number of realizations P")
 
 
-def _check_table(path, table, spec):
+@dataclass(frozen=True)
+class OutputOptions:
+    """The ``[output]`` table."""
+
+    formats: list = option(["gsd"], formats, "pack files written per realization (GSD is always written)")
+    plots: bool = option(True, boolean, "write ensemble plots")
+    plot_format: str = option("png", choice("png", "pdf", "svg"), "plot file format")
+
+
+def schema() -> dict:
+    """``{section: {key: OptionSpec}}`` of every table a study may hold, from the registry.
+
+    ``"protocol"`` holds ``kind`` and the union of every protocol's options (each protocol
+    accepts only its own); ``"psd"`` every generation key and model parameter.
+    """
+    from ._validate import choice as _choice
+    from .psd import config as psd_config
+    from .psd._capabilities import Generation
+
+    out = {"study": registry.option_specs(StudyOptions)}
+    psd = {k: s for k, s in registry.option_specs(Generation).items() if s.study}
+    for cap in registry.capabilities("psd").values():
+        for k, s in cap.specs().items():
+            psd.setdefault(k, s)
+    out["psd"] = psd
+    protocols = registry.capabilities("protocol")
+    proto = {"kind": registry.OptionSpec("kind", "scrm", _choice(*protocols), "packing protocol", "", False,
+                                         True, True)}
+    for cap in protocols.values():
+        for k, s in cap.specs().items():
+            proto.setdefault(k, s)
+    out["protocol"] = proto
+    for name, cap in registry.capabilities("analysis").items():
+        out[f"analysis.{name}"] = cap.specs()
+    out["output"] = registry.option_specs(OutputOptions)
+    del psd_config
+    return out
+
+
+def schema_doc() -> str:
+    """The study schema as text (one line per key: type and bounds, default, doc)."""
+    lines = []
+    for sec, specs in schema().items():
+        lines.append(f"[{sec}]")
+        for k, s in specs.items():
+            default = "required" if s.required else ("unset" if s.default is None else _fmt(s.default))
+            lines.append(f"  {k}: {s.describe}; default {default}. {s.doc}".rstrip())
+    return "\n".join(lines)
+
+
+def __getattr__(name):
+    if name == "SCHEMA":
+        return schema()
+    if name == "PSD_MODELS":
+        return {n: (c.run, tuple(c.specs())) for n, c in registry.capabilities("psd").items()}
+    if name == "ANALYSES":
+        return registry.names("analysis")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def _check_table(path, table, specs):
+    return registry.resolve_table(specs, table, path)
+
+
+def _check_protocol(table, path="protocol"):
+    """Resolve ``[protocol]``: ``kind`` picks the registered protocol, which accepts only its own options."""
     if not isinstance(table, dict):
         raise InvalidInputError(f"{path} = {_fmt(table)}: expected a table ([{path}])")
-    out = {}
-    for key, value in table.items():
-        if key not in spec:
-            allowed = ", ".join(spec)
-            raise InvalidInputError(f"{path}.{key}: unknown key; allowed in [{path}]: {allowed}")
-        try:
-            out[key] = spec[key].check(value)
-        except _Bad as exc:
-            raise InvalidInputError(f"{path}.{key} = {_fmt(value)}: {exc}") from None
-    for key, field in spec.items():
-        if key in out:
+    protocols = registry.capabilities("protocol")
+    kind = table.get("kind", "scrm")
+    if not isinstance(kind, str) or kind not in protocols:
+        raise InvalidInputError(f"{path}.kind = {_fmt(kind)}: allowed: {', '.join(_fmt(a) for a in protocols)}")
+    cap = protocols[kind]
+    specs = cap.specs()
+    known = set().union(*(set(c.specs()) for c in protocols.values()))
+    for key in table:
+        if key == "kind" or key in specs:
             continue
-        if field.default is _MISSING:
-            raise InvalidInputError(f"{path}.{key}: required key is missing")
-        if field.default is not None:
-            out[key] = copy.deepcopy(field.default)
-    return out
+        if key in known:
+            users = [n for n, c in protocols.items() if key in c.specs()]
+            only = " or ".join(f'{path}.kind = "{u}"' for u in users)
+            raise InvalidInputError(
+                f"{path}.{key}: only used with {only}, not with \"{kind}\"; "
+                f"allowed: kind, {', '.join(specs)}"
+            )
+        raise InvalidInputError(f"{path}.{key}: unknown key; allowed in [{path}]: kind, {', '.join(specs)}")
+    rest = cap.resolve({k: v for k, v in table.items() if k != "kind"}, path)
+    return {"kind": kind, **rest}
 
 
 def validate(data, name=None) -> dict:
@@ -387,6 +245,8 @@ def validate(data, name=None) -> dict:
     InvalidInputError
         With the key path first: ``protocol.volume_fraction = 1.2: must be in (0, 1)``.
     """
+    from .psd import config as psd_config
+
     if not isinstance(data, dict):
         raise InvalidInputError(f"study: expected a table, got {_type_name(data)}")
     sections = ("study", "psd", "protocol", "analysis", "output")
@@ -394,27 +254,29 @@ def validate(data, name=None) -> dict:
         if key not in sections:
             raise InvalidInputError(f"{key}: unknown section; allowed: {', '.join(sections)}")
     res = {}
-    for sec in ("study", "psd", "protocol", "output"):
-        res[sec] = _check_table(sec, data.get(sec, {}), SCHEMA[sec])
+    res["study"] = _check_table("study", data.get("study", {}), registry.option_specs(StudyOptions))
+    res["psd"] = psd_config.resolve(data.get("psd", {}), "psd", study=True)
+    res["protocol"] = _check_protocol(data.get("protocol", {}))
+    res["output"] = _check_table("output", data.get("output", {}), registry.option_specs(OutputOptions))
     if res["study"].get("name") is None:
         res["study"]["name"] = name or "study"
     ana = data.get("analysis", {})
     if not isinstance(ana, dict):
         raise InvalidInputError(f"analysis = {_fmt(ana)}: expected tables such as [analysis.rdf]")
+    analyses = registry.capabilities("analysis")
     res["analysis"] = {}
     for key, table in ana.items():
-        if key not in ANALYSES:
-            raise InvalidInputError(f"analysis.{key}: unknown analysis; allowed: {', '.join(ANALYSES)}")
-        res["analysis"][key] = _check_table(f"analysis.{key}", table, SCHEMA[f"analysis.{key}"])
+        if key not in analyses:
+            raise InvalidInputError(f"analysis.{key}: unknown analysis; allowed: {', '.join(analyses)}")
+        res["analysis"][key] = analyses[key].resolve(table, f"analysis.{key}")
 
     if res["study"]["realizations"] > MAX_REALIZATIONS:
         raise InvalidInputError(
             f"study.realizations = {res['study']['realizations']}: at most {MAX_REALIZATIONS} "
             "(split a larger ensemble into several studies with different seeds)"
         )
-    _check_psd(res["psd"])
-    _check_protocol(res["protocol"])
-    return res
+    _check_protocol_fractions(res["protocol"])
+    return {k: res[k] for k in ("study", "psd", "protocol", "output", "analysis")}
 
 
 #: Largest ``study.realizations`` accepted (a typo such as 1e11 would hang the seed spawning).
@@ -424,56 +286,21 @@ MAX_REALIZATIONS = 1_000_000
 REQUIRED_SECTIONS = ("psd", "protocol")
 
 
-def _check_psd(psd):
-    model = psd["model"]
-    allowed = set(PSD_MODELS[model][1])
-    params = {k for k in psd if k in _all_model_params()}
-    for k in sorted(params - allowed):
+def _check_protocol_fractions(pr):
+    """Cross-option checks of the resolved ``[protocol]``: the SCRM start and schedule lie below the target."""
+    vf = pr.get("volume_fraction")
+    if not isinstance(vf, float):
+        return
+    start = pr.get("start_fraction")
+    if start is not None and not (0 < start <= vf):
         raise InvalidInputError(
-            f"psd.{k}: not a parameter of model {_fmt(model)}; allowed: {', '.join(PSD_MODELS[model][1])}"
+            f"protocol.start_fraction = {start!r}: must be in (0, protocol.volume_fraction = {vf!r}]"
         )
-    for k, v in _MODEL_DEFAULTS.get(model, {}).items():
-        psd.setdefault(k, v)
-    if psd["sampling"] == "sample":
-        psd.setdefault("n", 2000)
-        for k in _CLASS_KEYS:
-            if k in psd:
-                raise InvalidInputError(f"psd.{k}: only used with psd.sampling = \"discretize\"")
-    else:
-        if "n" in psd:
-            raise InvalidInputError('psd.n: not used with psd.sampling = "discretize" (the class criteria set N)')
-        psd.setdefault("n_classes", 10)
-    for lo, hi in (("d_min", "d_max"),):
-        if lo in psd and hi in psd and not psd[lo] < psd[hi]:
-            raise InvalidInputError(f"psd.{lo} = {psd[lo]!r}: must be < psd.d_max = {psd[hi]!r}")
-    if "span" in psd and "d_min" in psd and "d_max" in psd:
-        raise InvalidInputError("psd.span: give span or d_min, not both with d_max")
-
-
-def _all_model_params():
-    return {p for _, ps in PSD_MODELS.values() for p in ps}
-
-
-def _check_protocol(pr):
-    kind = pr["kind"]
-    pr.setdefault("global_shakes", _DEFAULT_SHAKES[kind])
-    if kind == "crm":
-        for key in ("schedule", "growth_steps", "start_fraction", "stage_shakes"):
-            if key in pr:
-                raise InvalidInputError(f'protocol.{key}: only used with protocol.kind = "scrm"')
-    elif pr["volume_fraction"] == "jammed":
-        raise InvalidInputError('protocol.volume_fraction = "jammed": SCRM needs a number in (0, 1)')
-    elif "start_fraction" in pr and not (0 < pr["start_fraction"] <= pr["volume_fraction"]):
+    schedule = pr.get("schedule")
+    if isinstance(schedule, (list, tuple)) and schedule and schedule[-1] > vf:
         raise InvalidInputError(
-            f"protocol.start_fraction = {pr['start_fraction']!r}: must be in (0, protocol.volume_fraction = "
-            f"{pr['volume_fraction']!r}]"
+            f"protocol.schedule = {list(schedule)!r}: must not exceed protocol.volume_fraction = {vf!r}"
         )
-    if isinstance(pr["volume_fraction"], float) and "schedule" in pr:
-        if pr["schedule"][-1] > pr["volume_fraction"]:
-            raise InvalidInputError(
-                f"protocol.schedule = {pr['schedule']!r}: must not exceed protocol.volume_fraction = "
-                f"{pr['volume_fraction']!r}"
-            )
 
 
 # --------------------------------------------------------------------------- Study

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Optional
+from typing import List, Optional
 
 import typer
 
@@ -117,7 +117,48 @@ def analyze_packing(
     return out
 
 
+def _parse_run(spec: str):
+    """``"name:key=value,key=value"`` -> ``(name, {key: value})`` (values read as TOML, else text)."""
+    import tomllib
+
+    from ..errors import InvalidInputError
+
+    name, _, rest = spec.partition(":")
+    table = {}
+    for item in filter(None, (x.strip() for x in rest.split(","))):
+        key, eq, value = item.partition("=")
+        if not eq:
+            raise InvalidInputError(f"--run {spec!r}: options are key=value pairs separated by commas")
+        try:
+            table[key.strip()] = tomllib.loads(f"v = {value.strip()}")["v"]
+        except tomllib.TOMLDecodeError:
+            table[key.strip()] = value.strip()
+    return name.strip(), table
+
+
+def run_registered(pk, specs, seed=1):
+    """Run registered analyses (``[analysis.NAME]`` options of a study) on ``pk``: ``{name: result dict}``."""
+    import numpy as np
+
+    from .. import registry
+
+    out = {}
+    seeds = np.random.SeedSequence(seed).spawn(len(specs))
+    for spec, ss in zip(specs, seeds):
+        name, table = _parse_run(spec)
+        cap = registry.get("analysis", name, path="--run")
+        opts = cap.resolve(table, f"analysis.{name}")
+        est = cap.load()(pk, opts, ss)
+        conv = (lambda e: e if isinstance(e, dict) else e.to_dict())
+        out[name] = [conv(e) for e in est] if isinstance(est, list) else conv(est)
+    return out
+
+
 def register(app: typer.Typer) -> None:
+    from .. import registry
+
+    names = ", ".join(registry.names("analysis"))
+
     @app.command()
     def analyze(
         file: Path = typer.Argument(..., help="Packing file (gsd, xyz, lammps data, csv)."),
@@ -137,6 +178,10 @@ def register(app: typer.Typer) -> None:
         plots: Optional[Path] = typer.Option(None, "--plots", help="Write PNG plots into this folder."),
         fmt: Optional[str] = typer.Option(None, "--format", help="Override the file format."),
         overlaps: str = typer.Option("warn", "--overlaps", help="Overlapping input: warn, error or ignore."),
+        run: Optional[List[str]] = typer.Option(
+            None, "--run",
+            help=f"Run a registered analysis with the options of its \\[analysis.NAME] study table (user length "
+                 f"units), e.g. --run rdf:r_max=2.5,dr=0.02; repeatable. Registered: {names}."),
     ):
         """Statistical descriptors of a pack (all of them unless some are selected)."""
         from .. import io
@@ -163,13 +208,15 @@ def register(app: typer.Typer) -> None:
                 typer.echo(f"warning: {msg}", err=True)
         chosen = [rdf, partial, kfunc, windows, contacts, pores]
         if not any(chosen):
-            chosen = [True] * 6
+            chosen = [not run] * 6
         with overlap_policy("ignore"):  # judged above, once
             res = analyze_packing(
                 pk, *chosen, r_max=r_max, dr=dr, window_radius=window_radius, tolerance=tolerance,
                 n_points=points, seed=seed, plots=plots,
             )
         res = {"file": str(file), **res}
+        if run:
+            res["registered"] = run_registered(pk, run, seed)
         if to_stdout:  # machine-readable output only
             typer.echo(json.dumps(res, indent=1))
             return
@@ -179,6 +226,12 @@ def register(app: typer.Typer) -> None:
         typer.echo(f"{file}: N={pk.n}, volume fraction {pk.volume_fraction:.4f}, species {pk.species_counts.tolist()}")
         for note in res["notes"]:
             typer.echo(f"  note: {note}")
+        for name, d in res.get("registered", {}).items():
+            from ..ensemble.stages import scalar_descriptors
+
+            sc = scalar_descriptors({name: d})
+            shown = ", ".join(f"{k}={v:.4g}" for k, v in list(sc.items())[:6])
+            typer.echo(f"  {name}: {shown or 'done'}")
         if "contact_values" in res:
             cv = ", ".join(f"g_{k}(contact)={v['value']:.3f}" for k, v in res["contact_values"].items())
             typer.echo(f"  {cv}")

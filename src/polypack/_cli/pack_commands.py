@@ -83,6 +83,9 @@ def sizes_from_options(n, radius, size_ratio, volume_ratio):
 
 
 def register(app: typer.Typer) -> None:
+    from ..generate.lubachevsky import pack as _pack
+    from ._defaults import api_default
+
     @app.command("pack")
     def pack_command(
         sizes: Optional[Path] = typer.Argument(
@@ -94,11 +97,12 @@ def register(app: typer.Typer) -> None:
         radius: float = typer.Option(1.0, "--radius", help="Radius (of the large spheres for a bimodal mix)."),
         size_ratio: Optional[float] = typer.Option(None, "--size-ratio", help="Bimodal λ = a2/a1 <= 1."),
         volume_ratio: Optional[float] = typer.Option(None, "--volume-ratio", help="Bimodal ξ = c2/c1."),
-        volume_fraction: str = typer.Option("0.6", "--volume-fraction", "-c", help="Target fraction or 'jammed'."),
+        volume_fraction: str = typer.Option(str(api_default(_pack, "volume_fraction")), "--volume-fraction", "-c",
+                                            help="Target fraction or 'jammed'."),
         seed: Optional[int] = typer.Option(None, "--seed", help="Random seed (recorded in the output)."),
         growth_rate: Optional[float] = typer.Option(None, "--growth-rate", help="Dimensionless growth rate Γ."),
         fast_growth: float = typer.Option(
-            10.0, "--fast-growth",
+            api_default(_pack, "fast_growth"), "--fast-growth",
             help="Growth this many times faster below volume fraction 0.3 (the dilute start); 1 = one rate throughout.",
         ),
         max_seconds: Optional[float] = typer.Option(None, "--max-seconds", help="Wall-clock budget."),

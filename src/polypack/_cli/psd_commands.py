@@ -31,21 +31,21 @@ def _load_config(path: Path) -> dict:
 
 
 def run(params: dict, output: Path, report: Optional[Path] = None, plots: Optional[Path] = None, echo=print):
-    """Build the size set described by ``params`` and write it; returns the SizeSet."""
-    from ..psd.config import GENERATION_KEYS, MODELS, sizeset_from_dict
+    """Build the size set described by ``params`` (one ``[psd]`` table) and write it; returns the SizeSet.
 
-    allowed = set(GENERATION_KEYS) | {"model"} | {k for v in MODELS.values() for k in v}
-    for k in params:
-        if k not in allowed:
-            raise InvalidInputError(f"psd.{k}: unknown key; allowed: model, {', '.join(sorted(allowed - {'model'}))}")
+    The table is resolved by :func:`polypack.psd.config.resolve`, the same code as a
+    study's ``[psd]`` table, so both read it the same way.
+    """
     from .._util import check_output_folder, output_path
+    from ..psd.config import make_model, make_sizes, resolve
 
+    res = resolve(params, "psd")
     output_path(output)  # destinations checked before the sizes are built
     if report is not None:
         output_path(report)
     if plots is not None:
         check_output_folder(plots)
-    model, s = sizeset_from_dict(params)
+    model, s = make_model(res), make_sizes(res)
     csv_path, json_path = s.save(output, report)
     desc = s.report["descriptors"]
     echo(f"wrote {s.n} sizes ({len(desc['species_counts'])} species) to {csv_path}; report {json_path}")
@@ -70,54 +70,82 @@ def run(params: dict, output: Path, report: Optional[Path] = None, plots: Option
     return s
 
 
+def _cli_type(spec):
+    """Python type of a CLI option from its check: numbers float, integers int, the rest text."""
+    d = spec.describe
+    if d.startswith("integer") or d.startswith("2 (disks)"):
+        return int
+    if d.startswith("number") and "array" not in d:
+        return float
+    if d == "boolean":
+        return bool
+    return str
+
+
+def psd_options() -> dict:
+    """``{key: OptionSpec}`` of every ``[psd]`` key offered on the command line (from the registry)."""
+    from .. import registry
+    from ..psd._capabilities import Generation
+
+    specs = {k: s for k, s in registry.option_specs(Generation).items() if s.cli}
+    models = registry.capabilities("psd")
+    owners: dict = {}
+    for name, cap in models.items():
+        for k, s in cap.specs().items():
+            if s.cli:
+                specs.setdefault(k, s)
+                owners.setdefault(k, []).append(name)
+    return specs, owners
+
+
 def register(app: typer.Typer) -> None:
-    @app.command("psd")
-    def psd_command(
-        model: Optional[str] = typer.Option(
-            None, "--model", "-m",
-            help="cumulative_beta (cb), uniform_volume, uniform_size, lognormal, normal, monodisperse, "
-                 "bimodal, mixture, sieve."),
-        config: Optional[Path] = typer.Option(None, "--config", help="TOML file with a [psd] section (options override it)."),
-        a: Optional[float] = typer.Option(None, "--a", help="CB shape a > 0 (Eq. (12) of seed 001)."),
-        b: Optional[float] = typer.Option(None, "--b", help="CB shape b > 0."),
-        span: Optional[float] = typer.Option(None, "--span", help="Span s = (dmax-dmin)/(dmax+dmin) in (0, 1)."),
-        d_min: Optional[float] = typer.Option(None, "--d-min", help="Smallest diameter."),
-        d_max: Optional[float] = typer.Option(None, "--d-max", help="Largest diameter."),
-        median: Optional[float] = typer.Option(None, "--median", help="Log-normal median diameter."),
-        sigma: Optional[float] = typer.Option(None, "--sigma", help="Log-normal standard deviation of ln d."),
-        mean: Optional[float] = typer.Option(None, "--mean", help="Normal mean diameter."),
-        std: Optional[float] = typer.Option(None, "--std", help="Normal standard deviation."),
-        basis: Optional[str] = typer.Option(None, "--basis", help="Law given by 'number' or 'volume'."),
-        d: Optional[float] = typer.Option(None, "--d", help="Monodisperse diameter."),
-        size_ratio: Optional[float] = typer.Option(None, "--size-ratio", help="Bimodal λ = a2/a1 <= 1 (seed 000)."),
-        volume_ratio: Optional[float] = typer.Option(None, "--volume-ratio", help="Bimodal ξ = c2/c1."),
-        d_large: Optional[float] = typer.Option(None, "--d-large", help="Bimodal large diameter."),
-        spread: Optional[str] = typer.Option(None, "--spread", help="Log-sd per mode (one value or a list)."),
-        sizes: Optional[str] = typer.Option(None, "--sizes", help="Mixture mode diameters, e.g. 1,0.3."),
-        volume_fractions: Optional[str] = typer.Option(None, "--volume-fractions", help="Mixture volume fractions (sum 1)."),
-        sieve: Optional[Path] = typer.Option(None, "--sieve", help="Sieve-table CSV: size, % passing."),
-        dim: Optional[int] = typer.Option(None, "--dim", help="3 (spheres, default) or 2 (disks)."),
-        n: Optional[int] = typer.Option(None, "--n", help="Draw n particles from the number law (sampling='sample')."),
-        sampling: Optional[str] = typer.Option(None, "--sampling", help="'sample' or 'discretize' (default: sample iff --n)."),
-        n_classes: Optional[int] = typer.Option(None, "--n-classes", help="Number of size classes N_c."),
-        spacing: Optional[str] = typer.Option(None, "--spacing", help="geometric (Eq. (11)), regular, isochoric, modes."),
-        min_per_class: Optional[int] = typer.Option(None, "--min-per-class", help="N_p/c^min (Eq. (8))."),
-        min_total: Optional[int] = typer.Option(None, "--min-total", help="N_p^min (Eq. (9))."),
-        max_total: Optional[int] = typer.Option(None, "--max-total", help="Accessibility limit N_p^max."),
-        count_basis: Optional[str] = typer.Option(None, "--count-basis", help="'median' (Eq. (7)) or 'mean'."),
-        method: Optional[str] = typer.Option(None, "--method", help="'random' or 'quantiles' (deterministic)."),
-        seed: Optional[int] = typer.Option(None, "--seed", help="Random seed (recorded in the report)."),
-        output: Path = typer.Option(Path("sizes.csv"), "--output", "-o", help="Size-set CSV (radius,diameter,species)."),
-        report: Optional[Path] = typer.Option(None, "--report", help="JSON report (default: output with .json)."),
-        plots: Optional[Path] = typer.Option(None, "--plots", help="Folder for grading and histogram plots."),
-    ):
-        """Generate a representative size set (seed 001 §1.2) or a bimodal/mixture set (seed 000)."""
-        params = _load_config(config) if config is not None else {}
-        given = dict(model=model, a=a, b=b, span=span, d_min=d_min, d_max=d_max, median=median, sigma=sigma,
-                     mean=mean, std=std, basis=basis, d=d, size_ratio=size_ratio, volume_ratio=volume_ratio,
-                     d_large=d_large, spread=spread, sizes=sizes, volume_fractions=volume_fractions,
-                     sieve=str(sieve) if sieve is not None else None, dim=dim, n=n, sampling=sampling,
-                     n_classes=n_classes, spacing=spacing, min_per_class=min_per_class, min_total=min_total,
-                     max_total=max_total, count_basis=count_basis, method=method, seed=seed)
-        params.update({k: v for k, v in given.items() if v is not None})
-        run(params, output, report, plots, echo=typer.echo)
+    import inspect
+
+    from .. import registry
+
+    specs, owners = psd_options()
+    models = registry.capabilities("psd")
+    params = []
+    for key, spec in specs.items():
+        flag = "--" + key.replace("_", "-")
+        decls = [flag, "-m"] if key == "model" else [flag]
+        typ = _cli_type(spec)
+        if key == "model":
+            aliases = sorted(a for c in models.values() for a in c.aliases)
+            help_ = f"{', '.join(models)} (aliases {', '.join(aliases)}); default {spec.default}."
+        else:
+            who = f" [{', '.join(owners[key])}]" if key in owners else ""
+            help_ = f"{spec.doc}{who} ({spec.describe})."
+        if typ is bool:
+            opt = typer.Option(None, f"{flag}/--no-{key.replace('_', '-')}", help=help_)
+        else:
+            opt = typer.Option(None, *decls, help=help_)
+        params.append(inspect.Parameter(key, inspect.Parameter.KEYWORD_ONLY, default=opt,
+                                        annotation=Optional[typ]))
+    params += [
+        inspect.Parameter("config", inspect.Parameter.KEYWORD_ONLY, annotation=Optional[Path],
+                          default=typer.Option(None, "--config",
+                                               help="TOML file with a [psd] section (options override it).")),
+        inspect.Parameter("output", inspect.Parameter.KEYWORD_ONLY, annotation=Path,
+                          default=typer.Option(Path("sizes.csv"), "--output", "-o",
+                                               help="Size-set CSV (radius,diameter,species).")),
+        inspect.Parameter("report", inspect.Parameter.KEYWORD_ONLY, annotation=Optional[Path],
+                          default=typer.Option(None, "--report", help="JSON report (default: output with .json).")),
+        inspect.Parameter("plots", inspect.Parameter.KEYWORD_ONLY, annotation=Optional[Path],
+                          default=typer.Option(None, "--plots", help="Folder for grading and histogram plots.")),
+    ]
+
+    def psd_command(**kw):
+        """Generate a representative size set (seed 001 §1.2) or a bimodal/mixture set (seed 000).
+
+        Options are the keys of the \\[psd] table (the same as in a study file), generated from
+        the registered size-distribution models.
+        """
+        config, output, report, plots = (kw.pop(k) for k in ("config", "output", "report", "plots"))
+        table = _load_config(config) if config is not None else {}
+        given = {k: (str(v) if isinstance(v, Path) else v) for k, v in kw.items() if v is not None}
+        table.update(given)
+        run(table, output, report, plots, echo=typer.echo)
+
+    psd_command.__signature__ = inspect.Signature(params)
+    app.command("psd")(psd_command)

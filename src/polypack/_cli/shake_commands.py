@@ -17,19 +17,23 @@ def _floats(values):
 
 def register(app: typer.Typer) -> None:
     """Add the ``shake`` command to ``app``."""
+    from ..generate.shake import scrm as _scrm
+    from ..generate.shake import shake as _shake
+    from ._defaults import api_default
 
     @app.command()
     def shake(
         source: str = typer.Argument(..., metavar="IN", help="Input packing file (gsd, xyz, lammps data, csv)."),
         target: str = typer.Argument(..., metavar="OUT", help="Output file; the format follows its extension."),
-        global_shakes: int = typer.Option(60, "--global-shakes", "-M", help="Passes over all spheres (M)."),
+        global_shakes: int = typer.Option(api_default(_shake, "global_shakes"), "--global-shakes", "-M",
+                                          help="Passes over all spheres (M)."),
         shake_radius: Optional[List[float]] = typer.Option(
             None, "--shake-radius", help="R_sh in units of the sphere radius; repeat once per species."
         ),
         max_trials: Optional[List[int]] = typer.Option(
             None, "--max-trials", help="N_sh trials per visit; repeat once per species."
         ),
-        method: str = typer.Option("paper", "--method", help="paper, collision or metropolis."),
+        method: str = typer.Option(api_default(_shake, "method"), "--method", help="paper, collision or metropolis."),
         order: Optional[str] = typer.Option(None, "--order", help="sequential or random sphere order."),
         adaptive: bool = typer.Option(False, "--adaptive", help="Adapt R_sh (see polypack.shake)."),
         monitor_every: Optional[int] = typer.Option(
@@ -41,6 +45,7 @@ def register(app: typer.Typer) -> None:
         """Shake a pack: the seed's Monte-Carlo shaking (or collision-limited / Metropolis moves)."""
         from .. import io
         from .._util import output_path
+        from ..analysis import ContactValueMonitor
         from ..generate.shake import shake as run_shake
 
         io.format_for(target)
@@ -49,7 +54,7 @@ def register(app: typer.Typer) -> None:
         out = run_shake(
             pk, global_shakes=global_shakes, shake_radius=_floats(shake_radius), max_trials=_floats(max_trials),
             method=method, seed=seed, progress=progress, order=order, adaptive=adaptive,
-            monitor_every=monitor_every,
+            monitor=ContactValueMonitor(), monitor_every=monitor_every,
         )
         io.write(target, out)
         sh = out.meta["shake"]
@@ -74,14 +79,18 @@ def register(app: typer.Typer) -> None:
         radius: float = typer.Option(1.0, "--radius", help="Radius (of the large spheres for a bimodal mix)."),
         size_ratio: Optional[float] = typer.Option(None, "--size-ratio", help="Bimodal λ = a2/a1 <= 1."),
         volume_ratio: Optional[float] = typer.Option(None, "--volume-ratio", help="Bimodal ξ = c2/c1."),
-        volume_fraction: float = typer.Option(0.6, "--volume-fraction", "-c", help="Target volume fraction."),
-        growth_steps: int = typer.Option(10, "--growth-steps", help="Growth stages up to the target."),
+        volume_fraction: float = typer.Option(api_default(_scrm, "volume_fraction"), "--volume-fraction", "-c",
+                                              help="Target volume fraction."),
+        growth_steps: int = typer.Option(api_default(_scrm, "growth_steps"), "--growth-steps",
+                                         help="Growth stages up to the target."),
         start_fraction: Optional[float] = typer.Option(None, "--start-fraction", help="First stage fraction."),
-        stage_shakes: int = typer.Option(1, "--stage-shakes", help="Global shakes after each growth stage."),
-        global_shakes: int = typer.Option(60, "--global-shakes", "-M", help="Global shakes at the target (M)."),
+        stage_shakes: int = typer.Option(api_default(_scrm, "stage_shakes"), "--stage-shakes",
+                                         help="Global shakes after each growth stage."),
+        global_shakes: int = typer.Option(api_default(_scrm, "global_shakes"), "--global-shakes", "-M",
+                                          help="Global shakes at the target (M)."),
         shake_radius: Optional[List[float]] = typer.Option(None, "--shake-radius", help="R_sh; repeat per species."),
         max_trials: Optional[List[int]] = typer.Option(None, "--max-trials", help="N_sh; repeat per species."),
-        method: str = typer.Option("paper", "--method", help="paper, collision or metropolis."),
+        method: str = typer.Option(api_default(_shake, "method"), "--method", help="paper, collision or metropolis."),
         growth_rate: Optional[float] = typer.Option(None, "--growth-rate", help="Dimensionless growth rate Γ."),
         seed: Optional[int] = typer.Option(None, "--seed", help="Random seed (recorded in the output)."),
         progress: Optional[bool] = typer.Option(None, "--progress/--no-progress", help="Progress bar."),
@@ -92,6 +101,7 @@ def register(app: typer.Typer) -> None:
         import numpy as np
 
         from .. import io
+        from ..analysis import ContactValueMonitor
         from ..errors import InvalidInputError
         from ..generate.shake import scrm
         from .._util import output_path
@@ -111,7 +121,7 @@ def register(app: typer.Typer) -> None:
             SimpleNamespace(radii=radii, species=species), volume_fraction=volume_fraction, seed=seed,
             growth_steps=growth_steps, start_fraction=start_fraction, stage_shakes=stage_shakes,
             global_shakes=global_shakes, growth_rate=growth_rate, progress=progress, method=method,
-            shake_radius=_floats(shake_radius), max_trials=_floats(max_trials),
+            shake_radius=_floats(shake_radius), max_trials=_floats(max_trials), monitor=ContactValueMonitor(),
         )
         io.write(output, pk)
         sh, rec = pk.meta["shake"], pk.meta["scrm"]

@@ -8,7 +8,7 @@ rotations by the central-difference (leapfrog) scheme of PFC:
 and the same for the angular velocity with the torque and the moment of inertia.
 Forces come from :func:`polypack._kernels.contacts.contact_forces`.
 
-Local non-viscous damping, Eqs. (3)-(4) of 003_873b69fc71c74cf6.txt, acts per component,
+Local non-viscous damping, Eq. (3) of 003_873b69fc71c74cf6.txt and Eq. (4) of 003_873b69fc71c74cf6.txt, acts per component,
 ``F_d,k = -alpha |F_k| sign(v'_k)``, on the velocity ``v'`` relative to the imposed
 shear flow ``u = gamma_dot x_g e_a`` (and on the spin relative to the flow's rotation
 ``gamma_dot / 2 (e_g x e_a)``), so that a sample following the drive affinely is not

@@ -37,6 +37,8 @@ from __future__ import annotations
 
 import math
 
+from enum import IntEnum
+
 import numpy as np
 from numba import njit
 
@@ -44,12 +46,50 @@ from .cells import min_image, pairs_within
 
 INF = np.inf
 
-# status codes returned by run_chunk
-CHUNK_DONE = 0  # collision budget of the chunk used up
-REACHED_T_STOP = 1
-JAMMED = 2
-BOX_LIMIT = 3
-EVENT_BUDGET = 4
+
+
+class ChunkStatus(IntEnum):
+    """Status returned by :func:`run_chunk` (also stored in ``state[S_STATUS]``)."""
+
+    CHUNK_DONE = 0  # collision budget of the chunk used up
+    REACHED_T_STOP = 1
+    JAMMED = 2
+    BOX_LIMIT = 3
+    EVENT_BUDGET = 4
+
+
+# the same codes as plain ints for the compiled code
+CHUNK_DONE = int(ChunkStatus.CHUNK_DONE)
+REACHED_T_STOP = int(ChunkStatus.REACHED_T_STOP)
+JAMMED = int(ChunkStatus.JAMMED)
+BOX_LIMIT = int(ChunkStatus.BOX_LIMIT)
+EVENT_BUDGET = int(ChunkStatus.EVENT_BUDGET)
+
+# slots of the ``params`` array of run_chunk
+(P_T_STOP, P_MAX_COLLISIONS, P_MAX_PRESSURE, P_PRESSURE_WINDOW, P_T_REF, P_ALPHA, P_MAX_EVENTS, P_SYNC_EVERY,
+ P_DILUTE, P_MARGIN_CAP, P_SPEED) = range(11)
+N_PARAMS = 11
+# slots of the ``state`` array of run_chunk (counts accumulate across chunks)
+(S_TIME, S_COLLISIONS, S_EVENTS, S_REBUILDS, S_VIRIAL, S_KE_INTEGRAL, S_LOCAL_REBUILDS, S_STATUS) = range(8)
+N_STATE = 8
+
+
+def make_params(t_stop, max_collisions, max_pressure, pressure_window, t_ref, alpha, max_events, sync_every,
+                dilute, margin_cap, speed=1.0):
+    """The ``params`` array of :func:`run_chunk` from named values (slots ``P_*``)."""
+    p = np.empty(N_PARAMS)
+    p[P_T_STOP] = t_stop
+    p[P_MAX_COLLISIONS] = max_collisions
+    p[P_MAX_PRESSURE] = max_pressure
+    p[P_PRESSURE_WINDOW] = pressure_window
+    p[P_T_REF] = t_ref
+    p[P_ALPHA] = alpha
+    p[P_MAX_EVENTS] = max_events
+    p[P_SYNC_EVERY] = sync_every
+    p[P_DILUTE] = dilute
+    p[P_MARGIN_CAP] = margin_cap
+    p[P_SPEED] = speed
+    return p
 
 
 @njit(cache=True)
@@ -545,23 +585,23 @@ def _levels(g):
 
 @njit(cache=True)
 def run_chunk(x, v, g, box, state, params, hist):
-    """Advance the growing hard-sphere system by up to ``params[1]`` collisions.
+    """Advance the growing hard-sphere system by up to ``params[P_MAX_COLLISIONS]`` collisions.
 
     Parameters
     ----------
     x, v : (N, 3) float64
-        Positions (all at time ``state[0]``) and velocities; updated in place and
+        Positions (all at time ``state[S_TIME]``) and velocities; updated in place and
         left synchronised at the returned time, positions folded into the box.
     g : (N,) float64
         Growth speeds: radius ``g_i t``.
     box : (3,) float64
-    state : (8,) float64, in/out
-        ``[t, collisions, events, rebuilds, virial_sum, ke_time_integral,
-        local_rebuilds, status]`` (counts accumulate across chunks).
-    params : (10,) or (11,) float64
-        ``[t_stop, max_collisions_this_chunk, max_pressure, pressure_window,
-        t_ref, alpha, max_events_this_chunk, sync_every, dilute, margin_cap,
-        speed]`` (shell widths: :func:`shell_reach`, :func:`_shell_radius` with
+    state : (N_STATE,) float64, in/out
+        Slots ``S_TIME, S_COLLISIONS, S_EVENTS, S_REBUILDS, S_VIRIAL,
+        S_KE_INTEGRAL, S_LOCAL_REBUILDS, S_STATUS`` (counts accumulate across chunks).
+    params : (N_PARAMS,) float64 (see :func:`make_params`)
+        Slots ``P_T_STOP, P_MAX_COLLISIONS`` (this chunk), ``P_MAX_PRESSURE,
+        P_PRESSURE_WINDOW, P_T_REF, P_ALPHA, P_MAX_EVENTS`` (this chunk),
+        ``P_SYNC_EVERY, P_DILUTE, P_MARGIN_CAP, P_SPEED`` (shell widths: :func:`shell_reach`, :func:`_shell_radius` with
         ``g_margin = margin_cap * median(g)``; ``speed``, default 1, is the thermal
         speed the velocities are rescaled to at each synchronisation: a speed ``s``
         makes the growth per distance travelled ``1/s`` times faster).
@@ -570,7 +610,7 @@ def run_chunk(x, v, g, box, state, params, hist):
 
     Returns
     -------
-    (status, n_hist) : status code and number of rows written to ``hist``.
+    (status, n_hist) : :class:`ChunkStatus` code (int) and number of rows written to ``hist``.
 
     Notes
     -----
@@ -591,17 +631,17 @@ def run_chunk(x, v, g, box, state, params, hist):
     sphere's shell and list (multi-level cell grid of shell centres).
     """
     n = x.shape[0]
-    t = state[0]
-    t_stop = params[0]
-    max_coll = int(params[1])
-    p_max = params[2]
-    window = int(params[3])
-    t_ref = params[4]
-    dilute = params[8]
-    alpha = params[5]
-    max_events = int(params[6])
-    sync_every = int(params[7])
-    speed = params[10] if params.shape[0] > 10 else 1.0
+    t = state[S_TIME]
+    t_stop = params[P_T_STOP]
+    max_coll = int(params[P_MAX_COLLISIONS])
+    p_max = params[P_MAX_PRESSURE]
+    window = int(params[P_PRESSURE_WINDOW])
+    t_ref = params[P_T_REF]
+    dilute = params[P_DILUTE]
+    alpha = params[P_ALPHA]
+    max_events = int(params[P_MAX_EVENTS])
+    sync_every = int(params[P_SYNC_EVERY])
+    speed = params[P_SPEED] if params.shape[0] > P_SPEED else 1.0
     if sync_every <= 0:
         sync_every = 4 * n
 
@@ -617,7 +657,7 @@ def run_chunk(x, v, g, box, state, params, hist):
     rho = np.empty(n)
     level, nlev, gmax_lv = _levels(g)
     gmax = g.max()
-    g_margin = params[9] * np.median(g)
+    g_margin = params[P_MARGIN_CAP] * np.median(g)
 
     n_hist = 0
     h_cap = hist.shape[0]
@@ -665,7 +705,7 @@ def run_chunk(x, v, g, box, state, params, hist):
                         rho_max_lv[level[i]] = rho[i]
                 off, nn, nbr = build_lists(x, rho, box, level, nlev, pad)
                 nc, coff, head, nxt, prv, cell = _grid_build(xb, level, box, rho_max_lv, nlev, n)
-                state[3] += 1
+                state[S_REBUILDS] += 1
             for i in range(n):
                 cnt[i] = 0
             for i in range(n):
@@ -704,10 +744,10 @@ def run_chunk(x, v, g, box, state, params, hist):
             rho_new = _shell_radius(g[i], t, shell_reach(t, t_ref, alpha, dilute), g_margin, rho_cap)
             ok = _local_rebuild(i, rho_new, x, box, xb, rho, off, nn, nbr, level, nlev, rho_max_lv, nc, coff,
                                 head, nxt, prv, cell)
-            state[6] += 1
+            state[S_LOCAL_REBUILDS] += 1
             if not ok:
                 pad = min(2 * pad, 1024)
-                state[3] += 0  # overflow: global rebuild with more room
+                state[S_REBUILDS] += 0  # overflow: global rebuild with more room
                 need_rebuild = True
                 continue
             _predict(i, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
@@ -766,8 +806,8 @@ def run_chunk(x, v, g, box, state, params, hist):
                 hist[n_hist, 1] = p
                 hist[n_hist, 2] = w_coll
                 n_hist += 1
-            state[4] += w_vir
-            state[5] += w_ke
+            state[S_VIRIAL] += w_vir
+            state[S_KE_INTEGRAL] += w_ke
             w_coll = 0
             w_vir = 0.0
             w_ke = 0.0
@@ -779,12 +819,12 @@ def run_chunk(x, v, g, box, state, params, hist):
     _sync_all(x, v, tl, t)
     _wrap(x, box)
     w_ke += ke * (t - t_last)
-    state[0] = t
-    state[1] += coll
-    state[2] += events
-    state[4] += w_vir
-    state[5] += w_ke
-    state[7] = status
+    state[S_TIME] = t
+    state[S_COLLISIONS] += coll
+    state[S_EVENTS] += events
+    state[S_VIRIAL] += w_vir
+    state[S_KE_INTEGRAL] += w_ke
+    state[S_STATUS] = status
     return status, n_hist
 
 
@@ -825,8 +865,8 @@ def warmup():
     x = rng.random((n, 3)) * 6.0
     v = rng.normal(size=(n, 3))
     g = np.full(n, 0.01)
-    state = np.zeros(8)
-    params = np.array([50.0, 100.0, 1e6, 16.0, 50.0, 0.3, 1e6, 0.0, 0.5, 3.0])
+    state = np.zeros(N_STATE)
+    params = make_params(50.0, 100.0, 1e6, 16.0, 50.0, 0.3, 1e6, 0.0, 0.5, 3.0)
     hist = np.zeros((16, 3))
     run_chunk(x, v, g, box, state, params, hist)
-    next_event_brute(x, v, g, box, state[0])
+    next_event_brute(x, v, g, box, state[S_TIME])

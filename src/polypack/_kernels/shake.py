@@ -10,7 +10,7 @@ over all spheres) of one of three move types:
 ``METHOD_COLLISION`` (1)
     The collision-limited shake of Eq. (9) of 000_2cedc098acbd866b.txt: a random
     direction, the free flight to the first contact along it (smaller positive root
-    of Eq. (9), minimum image), the best of ``N_sh`` directions, and an amplitude
+    of Eq. (9) of 000_2cedc098acbd866b.txt, minimum image), the best of ``N_sh`` directions, and an amplitude
     uniform in ``[0, min(free flight, R_sh a_i)]``.
 ``METHOD_METROPOLIS`` (2)
     Standard Metropolis for hard spheres: the paper move with exactly one trial
@@ -432,7 +432,7 @@ def shake_sweeps(pos, since, radii, species, box, rsh, start, idx, skin, ncell, 
             dya = 0.0
             dza = 0.0
             if method == 1:
-                # collision-limited amplitude, Eq. (9): best of N_sh directions
+                # collision-limited amplitude, Eq. (9) of 000_2cedc098acbd866b.txt: best of N_sh directions
                 bestf = -1.0
                 bx = 0.0
                 by = 0.0

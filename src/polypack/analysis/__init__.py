@@ -15,10 +15,10 @@ from importlib import import_module as _import_module
 
 from ._base import overlap_policy, set_overlap_policy
 from .kfunction import KFunction
-from .rdf import RDF, contact_value, scaled_coordinate, size_classes
+from .rdf import RDF, ContactValueMonitor, contact_value, scaled_coordinate, size_classes
 
-__all__ = ["KFunction", "RDF", "contact_value", "scaled_coordinate", "size_classes", "overlap_policy",
-           "set_overlap_policy"]
+__all__ = ["KFunction", "RDF", "ContactValueMonitor", "contact_value", "scaled_coordinate", "size_classes",
+           "overlap_policy", "set_overlap_policy"]
 
 _LAZY = {
     "WindowCounts": "windows",

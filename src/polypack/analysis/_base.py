@@ -16,7 +16,7 @@ import numpy as np
 import contextlib
 import warnings
 
-from ..errors import InvalidInputError, OverlapError, OverlapWarning
+from ..errors import InvalidInputError, NotComputedError, OverlapError, OverlapWarning
 from ..packing import Packing
 
 #: What the estimators do with overlapping input: "warn" (default), "error" or "ignore".
@@ -223,15 +223,118 @@ def to_jsonable(obj):
     return obj
 
 
+def _init_params(cls) -> tuple:
+    """Names of the constructor parameters of ``cls`` and its bases (its estimator parameters)."""
+    import inspect
+
+    names = []
+    for klass in cls.__mro__:
+        init = klass.__dict__.get("__init__")
+        if init is None:
+            continue
+        init = getattr(init, "__wrapped__", init)
+        for p in list(inspect.signature(init).parameters)[1:]:
+            if p not in names and p not in ("args", "kwargs"):
+                names.append(p)
+    return tuple(names)
+
+
+def _guarded(name, prop):
+    """A property that raises NotComputedError before compute() and caches its value per state."""
+
+    def fget(self):
+        if not self._frames:
+            raise NotComputedError(
+                f"{type(self).__name__}.{name} is not computed yet; call compute(packing) first"
+            )
+        token = (id(self._frames), len(self._frames), self._version)
+        cache = self.__dict__.setdefault("_cache", {})
+        if cache.get("__token__") != token:
+            cache.clear()
+            cache["__token__"] = token
+        if name not in cache:
+            value = prop.fget(self)
+            if isinstance(value, np.ndarray):
+                value.setflags(write=False)
+            cache[name] = value
+        return cache[name]
+
+    fget.__doc__ = prop.__doc__
+    fget.__name__ = name
+    return property(fget, doc=prop.__doc__)
+
+
 class Estimator:
-    """Base class: realization bookkeeping for ``compute(packing, reset)``."""
+    """Base class of every estimator: the one protocol all of them follow.
+
+    * ``compute(packing, reset=True)`` returns ``self``; ``reset=False`` adds the packing
+      as one more realization.
+    * Every result property raises :class:`~polypack.NotComputedError` before the first
+      ``compute`` and is computed once per state (cached until the next ``compute`` or
+      ``reset``); array results are read-only.
+    * The parameters (the constructor's arguments) are read-only after construction:
+      make a new estimator to change them.
+    * ``repr`` shows the parameters and the number of realizations; ``to_dict()`` gives
+      plain JSON data.
+
+    Subclasses get this automatically: public properties whose name is not a constructor
+    parameter are results.
+    """
+
+    _params: tuple = ()
+
+    def __init_subclass__(cls, **kw):
+        super().__init_subclass__(**kw)
+        cls._params = _init_params(cls)
+        for name, attr in list(cls.__dict__.items()):
+            if isinstance(attr, property) and not name.startswith("_") and name not in cls._params \
+                    and name != "n_realizations" and attr.fset is None:
+                setattr(cls, name, _guarded(name, attr))
+        init = cls.__dict__.get("__init__")
+        if init is not None and not getattr(init, "_freezes", False):
+            import functools
+
+            @functools.wraps(init)
+            def __init__(self, *args, __init=init, **kwargs):
+                depth = self.__dict__.get("_init_depth", 0)
+                object.__setattr__(self, "_init_depth", depth + 1)
+                try:
+                    __init(self, *args, **kwargs)
+                finally:
+                    object.__setattr__(self, "_init_depth", depth)
+                if depth == 0:
+                    object.__setattr__(self, "_frozen", True)
+
+            __init__._freezes = True
+            cls.__init__ = __init__
 
     def __init__(self):
         self._frames = []
+        self._version = 0
+
+    def __setattr__(self, name, value):
+        if not name.startswith("_") and self.__dict__.get("_frozen", False):
+            raise AttributeError(
+                f"{type(self).__name__}.{name} is read-only after construction; create a new "
+                f"{type(self).__name__}(...) with the parameters you want"
+            )
+        object.__setattr__(self, name, value)
+
+    def __repr__(self) -> str:
+        parts = []
+        for p in self._params:
+            try:
+                v = getattr(self, p)
+            except Exception:  # a parameter kept under another name
+                continue
+            parts.append(f"{p}={v!r}")
+        parts.append(f"n_realizations={self.n_realizations}")
+        return f"{type(self).__name__}({', '.join(parts)})"
 
     def reset(self):
         """Forget all accumulated realizations."""
         self._frames = []
+        self._version = getattr(self, "_version", 0) + 1
         return self
 
     @property
@@ -241,7 +344,7 @@ class Estimator:
 
     def _require(self):
         if not self._frames:
-            raise InvalidInputError(f"{type(self).__name__} has no results yet; call compute(packing) first")
+            raise NotComputedError(f"{type(self).__name__} has no results yet; call compute(packing) first")
 
     def _stack(self, name):
         return np.stack([f[name] for f in self._frames])

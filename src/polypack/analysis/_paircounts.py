@@ -47,8 +47,7 @@ def pair_norms(packing, scale="distance", normalization="finite_size"):
     """Ideal-gas weights ``W[k, m]`` such that expected counts are ``W * volume(x) / V``.
 
     For ``scale="distance"``: ``W = N_k (N_m - delta_km)`` (``"finite_size"``, unbiased for a
-    Poisson process of fixed N) or ``N_k N_m`` (``"seed"``, Eqs. (2), (5) of
-    000_2cedc098acbd866b.txt as printed). For ``scale="contact"``:
+    Poisson process of fixed N) or ``N_k N_m`` (``"seed"``, Eq. (2) of 000_2cedc098acbd866b.txt and Eq. (5) of 000_2cedc098acbd866b.txt as printed). For ``scale="contact"``:
     ``W = sum_{i in k} sum_{j in m, j != i} (r_i + r_j)^3`` (the ``j = i`` terms kept
     for ``"seed"``), so that the volume of a shell in the scaled coordinate
     ``x = d/(r_i + r_j)`` is ``4/3 pi (x_2^3 - x_1^3)``.

@@ -1,6 +1,6 @@
 """Ripley's K function K(r) and the partial K_km(r) with toroidal edge correction.
 
-Eqs. (2) and (5) of 000_2cedc098acbd866b.txt: in a periodic box the toroidal
+Eq. (2) of 000_2cedc098acbd866b.txt and Eq. (5) of 000_2cedc098acbd866b.txt: in a periodic box the toroidal
 correction has ``w_ij = 1`` and every sphere sees all its neighbours through the
 minimum image.
 """
@@ -32,14 +32,13 @@ class KFunction(PairCountEstimator):
         the ideal pair number weighted by ``(r_i + r_j)^3`` (Poisson: ``4 pi x^3 / 3``).
     normalization : {"finite_size", "seed"}
         ``V / (N_k (N_m - delta_km))`` (default, unbiased: a Poisson pattern of fixed
-        N gives ``E K = 4 pi r^3 / 3``) or ``V / (N_k N_m)`` as printed in Eqs. (2),
-        (5) of 000_2cedc098acbd866b.txt.
+        N gives ``E K = 4 pi r^3 / 3``) or ``V / (N_k N_m)`` as printed in Eq. (2) of 000_2cedc098acbd866b.txt and Eq. (5) of 000_2cedc098acbd866b.txt.
 
     Notes
     -----
     ``K_km(r) = V / W_km * #{(i, j): i in k, j in m, j != i, d_ij < r}`` with
     ``W_km`` the ideal pair number. At exact lattice distances this is the left
-    limit of Eq. (2) (which counts ``d_ij <= r``); for random packs the two agree
+    limit of Eq. (2) of 000_2cedc098acbd866b.txt (which counts ``d_ij <= r``); for random packs the two agree
     with probability one. The mean number of m neighbours of a k sphere within r
     is ``(N_m - delta_km) K_km(r) / V``.
     """

@@ -7,7 +7,7 @@ image; exact for polydisperse spheres). The void exclusion probability is
 cumulative pore-size distribution ``P(r_P > r) = E_V(r) / E_V(0)`` is the same
 probability for points in the void. The degree of heterogeneity (DOH) of
 003_873b69fc71c74cf6.txt is the width ``a`` of an error-function fit to
-``P(r_P > r)`` in the variable ``r / r0``, Eq. (6).
+``P(r_P > r)`` in the variable ``r / r0``, Eq. (6) of 003_873b69fc71c74cf6.txt.
 """
 
 from __future__ import annotations
@@ -104,7 +104,7 @@ class PoreSizes(Estimator):
     seed : int or numpy.random.SeedSequence, optional
         Seed of the test points; each realization spawns a child seed.
     r0 : float, optional
-        Reference radius of the DOH fit (``r / r0``, Eq. (6) of seed 003); default
+        Reference radius of the DOH fit (``r / r0``, Eq. (6) of 003_873b69fc71c74cf6.txt); default
         the number-mean radius of the pack (seed 003 is monodisperse, r0 = its radius).
     n_grid : int
         Points of the reported curve between 0 and the largest pore distance.
@@ -244,7 +244,7 @@ class PoreSizes(Estimator):
 
     @property
     def fit(self) -> dict:
-        """DOH fits of ``P(r_P > r)`` vs ``r / r0``: the printed Eq. (6) and the normalised form."""
+        """DOH fits of ``P(r_P > r)`` vs ``r / r0``: the printed Eq. (6) of 003_873b69fc71c74cf6.txt and the normalised form."""
         from scipy.optimize import curve_fit
 
         x = self.r / self.r0_used

@@ -1,6 +1,6 @@
 """Radial distribution function g(r), partial g_km(r), contact values g(2a+).
 
-Implements Eqs. (4), (6), (14)-(16) of 000_2cedc098acbd866b.txt with the toroidal
+Implements Eq. (4) of 000_2cedc098acbd866b.txt, Eq. (6) of 000_2cedc098acbd866b.txt and Eq. (14) of 000_2cedc098acbd866b.txt to Eq. (16) of 000_2cedc098acbd866b.txt with the toroidal
 (periodic) edge correction, plus the scaled coordinate ``R_km`` of its §5.3.
 """
 
@@ -89,28 +89,28 @@ class RDF(PairCountEstimator):
         volume, reported at the shell centres. ``"right"``: the right difference
         g+(r, Delta r) of Eq. (14_2) of 000_2cedc098acbd866b.txt applied to the K
         function (reported at the inner radius r). ``"central"``: the central
-        difference g±(r, Delta r) of Eq. (14_1), which at a discontinuity of K (a
+        difference g±(r, Delta r) of Eq. (14_1) of 000_2cedc098acbd866b.txt, which at a discontinuity of K (a
         contact shell, e.g. r = 2a in a lattice) gives half of the right difference,
-        Eqs. (15)-(16).
+        Eq. (15) of 000_2cedc098acbd866b.txt to Eq. (16) of 000_2cedc098acbd866b.txt.
     scale : {"distance", "contact"}
         ``"contact"`` bins the contact-scaled distance ``d_ij / (r_i + r_j)`` of every
         pair (for continuous size distributions); contact is then at 1 for every pair.
     normalization : {"finite_size", "seed"}
         Ideal-gas pair number ``N_k (N_m - delta_km)`` (default; unbiased: a Poisson
         pattern of fixed N gives g = 1 on average; freud's ``"finite_size"`` mode) or
-        ``N_k N_m`` as printed in Eqs. (2), (5) of 000_2cedc098acbd866b.txt (biased low
+        ``N_k N_m`` as printed in Eq. (2) of 000_2cedc098acbd866b.txt and Eq. (5) of 000_2cedc098acbd866b.txt (biased low
         by ``1/N_m`` on the diagonal; freud's default ``"exact"`` mode).
 
     Notes
     -----
     The K function behind ``"right"`` and ``"central"`` counts pairs with
-    ``d < r`` (the left limit of Eq. (2) at exact lattice distances), so that a
+    ``d < r`` (the left limit of Eq. (2) of 000_2cedc098acbd866b.txt at exact lattice distances), so that a
     contact shell at ``r = 2a`` enters g+(2a, Delta r) as in §5.2 of the seed
     (simple cubic lattice: g+(2a, 0.1a) = 9.55).
 
     Partials: ``g_km(r) = V n_km(r) / (W_km v(r))`` with ``n_km`` the number of
     ordered pairs (i of species k, j of species m), ``v`` the shell volume and
-    ``W_km`` the ideal pair number, Eq. (6). The total RDF uses all pairs, which
+    ``W_km`` the ideal pair number, Eq. (6) of 000_2cedc098acbd866b.txt. The total RDF uses all pairs, which
     equals the number-weighted sum of the partials. ``g_km == g_mk`` exactly.
 
     With ``reset=False`` the counts of all realizations are pooled; ``g_err`` is
@@ -322,7 +322,7 @@ def contact_value(packing, pairs=None, width=0.05, n_bins=10, degree=1, return_e
     actual ``(r_i + r_j)^3`` of every pair, so polydisperse species are handled), and
     a polynomial of degree ``degree`` in ``x - 1`` is fitted by weighted least squares
     (weights from Poisson errors) and evaluated at ``x = 1``. This is the right limit
-    g(2a+) of Eqs. (11)-(13) of 000_2cedc098acbd866b.txt.
+    g(2a+) of Eq. (11) of 000_2cedc098acbd866b.txt to Eq. (13) of 000_2cedc098acbd866b.txt.
 
     Use it to compare packs and to monitor convergence (e.g. of shaking); near
     jamming g diverges towards contact and a low-degree extrapolation over a finite
@@ -398,3 +398,47 @@ def contact_value(packing, pairs=None, width=0.05, n_bins=10, degree=1, return_e
     if return_error:
         return values, errors
     return values
+
+
+class ContactValueMonitor:
+    """Convergence monitor for the generators: the contact values ``g_km(a_k + a_m)+`` of a pack.
+
+    A callable ``monitor(packing) -> {"k-m": value}`` over the species pairs present,
+    computed with :func:`contact_value`; pass it to :func:`polypack.shake` or
+    :func:`polypack.scrm` (``monitor=``).  The generators never import the analysis
+    layer; this object carries the estimator to them.
+
+    Parameters
+    ----------
+    width, n_bins, degree
+        Options of :func:`contact_value`; the default (linear extrapolation over a 5 %
+        gap window) is what ``polypack run`` uses.  The seed's own estimator, the
+        histogram value in ``[2a, 2a + 0.01a)`` (§5.1 of 000_2cedc098acbd866b.txt), is
+        ``ContactValueMonitor(width=0.005, n_bins=1, degree=0)``.
+    """
+
+    name = "contact_value"
+
+    def __init__(self, width=0.05, n_bins=10, degree=1):
+        width = check_positive("width", width)
+        if isinstance(n_bins, bool) or int(n_bins) != n_bins or n_bins < degree + 1:
+            raise InvalidInputError(f"n_bins={n_bins!r} must be an integer >= degree + 1")
+        if isinstance(degree, bool) or int(degree) != degree or degree < 0:
+            raise InvalidInputError(f"degree={degree!r} must be an integer >= 0")
+        self._options = {"width": width, "n_bins": int(n_bins), "degree": int(degree)}
+
+    @property
+    def options(self) -> dict:
+        """The :func:`contact_value` options (a copy)."""
+        return dict(self._options)
+
+    def __call__(self, packing) -> dict:
+        counts = np.bincount(packing.species, minlength=packing.n_species)
+        present = [k for k in range(packing.n_species) if counts[k] > 0]
+        pairs = [(k, m) for ki, k in enumerate(present) for m in present[ki:]]
+        vals = contact_value(packing, pairs=pairs, **self._options)
+        return {f"{k}-{m}": float(vals[(k, m)]) for k, m in pairs}
+
+    def __repr__(self) -> str:
+        o = self._options
+        return f"ContactValueMonitor(width={o['width']!r}, n_bins={o['n_bins']}, degree={o['degree']})"

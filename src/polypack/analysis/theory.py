@@ -3,18 +3,18 @@
 
 Conventions: ``a`` is the sphere radius, ``c`` the volume fraction (packing
 fraction ``eta``), ``r`` the centre distance; contact is at ``r = 2a`` (mixtures:
-``a_i + a_j``). ``g_c`` functions return ``g(2a+) - 1`` as in Eqs. (11)-(13);
+``a_i + a_j``). ``g_c`` functions return ``g(2a+) - 1`` as in Eq. (11) of 000_2cedc098acbd866b.txt to Eq. (13) of 000_2cedc098acbd866b.txt;
 ``*_contact`` functions return ``g(2a+)`` itself.
 
 Two printed equations are not consistent with the rest of the seed and with the
 literature it cites; both variants are available and the choice is documented
 where it matters:
 
-* Eq. (13) reads ``(2 + c) / (2 (1 - c^2)) - 1`` in the extracted text. The
+* Eq. (13) of 000_2cedc098acbd866b.txt reads ``(2 + c) / (2 (1 - c^2)) - 1`` in the extracted text. The
   Percus-Yevick contact value is ``(1 + c/2) / (1 - c)^2`` (Throop and Bearman
-  1965; Eq. (23) of the seed at ``lambda = 1``); :func:`kanaun_g_c` uses it, and
+  1965; Eq. (23) of 000_2cedc098acbd866b.txt at ``lambda = 1``); :func:`kanaun_g_c` uses it, and
   ``printed=True`` gives the extracted form.
-* Eq. (17) divides ``g_c^W(c_2) - 1`` by ``g_c^W(c_1) - 1`` although ``g_c^W`` is
+* Eq. (17) of 000_2cedc098acbd866b.txt divides ``g_c^W(c_2) - 1`` by ``g_c^W(c_1) - 1`` although ``g_c^W`` is
   already ``g(2a+) - 1`` and the text before it assumes the ratio
   ``g_c(c_2) / g_c(c_1)``; :func:`extrapolate_rdf` uses the ratio (consistent with
   the Willis form (11)) unless ``printed=True``.
@@ -69,18 +69,18 @@ def well_stirred(r, a):
 
 
 def willis_g_c(c):
-    """Willis' amplitude ``g_c0^W(c) = 0.8006 (8c - 1)/c``, Eq. (12_1); needs ``c >= 1/8``."""
+    """Willis' amplitude ``g_c0^W(c) = 0.8006 (8c - 1)/c``, Eq. (12_1) of 000_2cedc098acbd866b.txt; needs ``c >= 1/8``."""
     c = _fraction(c)
     if np.any(c < 0.125):
-        raise InvalidInputError(f"c={c!r}: Willis' Eq. (12_1) needs c >= 1/8 (else use kanaun_g_c)")
+        raise InvalidInputError(f"c={c!r}: Willis' Eq. (12_1) of 000_2cedc098acbd866b.txt needs c >= 1/8 (else use kanaun_g_c)")
     return 0.8006 * (8.0 * c - 1.0) / c
 
 
 def kanaun_g_c(c, printed=False):
-    """Kanaun's amplitude ``g_c^PY(c) = g_PY(2a+) - 1``, Eq. (13).
+    """Kanaun's amplitude ``g_c^PY(c) = g_PY(2a+) - 1``, Eq. (13) of 000_2cedc098acbd866b.txt.
 
     Uses the Percus-Yevick contact value ``(1 + c/2)/(1 - c)^2``; ``printed=True``
-    evaluates the extracted Eq. (13), ``(2 + c)/(2 (1 - c^2)) - 1``, instead.
+    evaluates the extracted Eq. (13) of 000_2cedc098acbd866b.txt, ``(2 + c)/(2 (1 - c^2)) - 1``, instead.
     """
     c = _fraction(c)
     if printed:
@@ -89,16 +89,16 @@ def kanaun_g_c(c, printed=False):
 
 
 def willis_g_r(r, a):
-    """Radial factor ``g_r^W(r) = cos(pi r / a) exp(2 (2 - r/a))``, Eq. (12_2)."""
+    """Radial factor ``g_r^W(r) = cos(pi r / a) exp(2 (2 - r/a))``, Eq. (12_2) of 000_2cedc098acbd866b.txt."""
     a = _radius(a)
     x = np.asarray(r, dtype=np.float64) / a
     return np.cos(np.pi * x) * np.exp(2.0 * (2.0 - x))
 
 
 def willis(r, a, c, amplitude="kanaun"):
-    """Willis approximation ``H(r - 2a) [1 + g_c(c) g_r(r)]``, Eq. (11).
+    """Willis approximation ``H(r - 2a) [1 + g_c(c) g_r(r)]``, Eq. (11) of 000_2cedc098acbd866b.txt.
 
-    ``amplitude="kanaun"`` (the seed's default, Eq. (13)) or ``"willis"`` (Eq. (12_1)).
+    ``amplitude="kanaun"`` (the seed's default, Eq. (13) of 000_2cedc098acbd866b.txt) or ``"willis"`` (Eq. (12_1) of 000_2cedc098acbd866b.txt).
     """
     if amplitude == "kanaun":
         gc = kanaun_g_c(c)
@@ -188,9 +188,9 @@ def percus_yevick_rdf(r, a, c, dr=None, r_cut=None):
 
 # ------------------------------------------------------------------ mixtures
 def percus_yevick_mixture_contact(radii, volume_fractions):
-    """PY contact values ``g_ij(a_i + a_j)`` of a hard-sphere mixture, Eqs. (21)-(22).
+    """PY contact values ``g_ij(a_i + a_j)`` of a hard-sphere mixture, Eq. (21) of 000_2cedc098acbd866b.txt to Eq. (22) of 000_2cedc098acbd866b.txt.
 
-    ``g_ii = (1 - zeta_3 + 3 a_i zeta_2) / (1 - zeta_3)^2`` (the extracted Eq. (22)
+    ``g_ii = (1 - zeta_3 + 3 a_i zeta_2) / (1 - zeta_3)^2`` (the extracted Eq. (22) of 000_2cedc098acbd866b.txt
     lacks the division), ``g_ij = (a_j g_ii + a_i g_jj) / (a_i + a_j)``, with
     ``zeta_alpha = (pi 2^(alpha-1) / 3) sum_k n_k a_k^alpha`` and number densities
     ``n_k = c_k / (4/3 pi a_k^3)``.
@@ -213,7 +213,7 @@ def percus_yevick_mixture_contact(radii, volume_fractions):
 
 
 def percus_yevick_dilute_contact(c1, size_ratio):
-    """``g_12(a_1 + a_2)`` for a vanishing amount of species 2, Eq. (23).
+    """``g_12(a_1 + a_2)`` for a vanishing amount of species 2, Eq. (23) of 000_2cedc098acbd866b.txt.
 
     ``[1 + c1 (2 lambda - 1)/(lambda + 1)] / (1 - c1)^2`` with ``lambda = a_2/a_1``;
     equals :func:`percus_yevick_contact` at ``lambda = 1``.
@@ -226,13 +226,13 @@ def percus_yevick_dilute_contact(c1, size_ratio):
 
 
 def well_stirred_partial(r, a_i, a_j):
-    """``g_ij = H(R_ij - 2)``, Eq. (19), ``R_ij = (r - a_i)/a_j + 1``."""
+    """``g_ij = H(R_ij - 2)``, Eq. (19) of 000_2cedc098acbd866b.txt, ``R_ij = (r - a_i)/a_j + 1``."""
     R = (np.asarray(r, dtype=np.float64) - _radius(a_i, "a_i")) / _radius(a_j, "a_j") + 1
     return np.where(R >= 2, 1.0, 0.0)
 
 
 def willis_partial(r, a_i, a_j, contact_value):
-    """``H(R - 2) [1 + (g^c_ij - 1) cos(pi R) exp(2 (2 - R))]``, Eq. (20).
+    """``H(R - 2) [1 + (g^c_ij - 1) cos(pi R) exp(2 (2 - R))]``, Eq. (20) of 000_2cedc098acbd866b.txt.
 
     ``contact_value`` is ``g^c_ij``, e.g. from :func:`percus_yevick_mixture_contact`.
     """
@@ -241,11 +241,11 @@ def willis_partial(r, a_i, a_j, contact_value):
 
 
 def extrapolate_rdf(r, g, a, c1, c2, amplitude="kanaun", printed=False):
-    """Rescale a measured RDF from volume fraction ``c1`` to ``c2``, Eq. (17).
+    """Rescale a measured RDF from volume fraction ``c1`` to ``c2``, Eq. (17) of 000_2cedc098acbd866b.txt.
 
     Outside the core ``g(r, c2) - 1 = [g(r, c1) - 1] * q``; inside it stays 0.
-    ``q = g_c(c2)/g_c(c1)`` (the assumption stated before Eq. (17)) or, with
-    ``printed=True``, ``(g_c(c2) - 1)/(g_c(c1) - 1)`` as Eq. (17) is printed.
+    ``q = g_c(c2)/g_c(c1)`` (the assumption stated before Eq. (17) of 000_2cedc098acbd866b.txt) or, with
+    ``printed=True``, ``(g_c(c2) - 1)/(g_c(c1) - 1)`` as Eq. (17) of 000_2cedc098acbd866b.txt is printed.
     """
     fn = {"kanaun": kanaun_g_c, "willis": willis_g_c}.get(amplitude)
     if fn is None:

@@ -1,4 +1,4 @@
-"""Window counts p(n_h) (Fig. 4) and the shell count I(r) (Eq. (18), Fig. 7) of
+"""Window counts p(n_h) (Fig. 4) and the shell count I(r) (Eq. (18) of 000_2cedc098acbd866b.txt, Fig. 7) of
 000_2cedc098acbd866b.txt."""
 
 from __future__ import annotations
@@ -179,7 +179,7 @@ class WindowCounts(Estimator):
 
 
 class ShellCount(GridEstimator):
-    """Mean number of centres in the shell ``[r, r + dr)`` around a sphere, Eq. (18).
+    """Mean number of centres in the shell ``[r, r + dr)`` around a sphere, Eq. (18) of 000_2cedc098acbd866b.txt.
 
     ``I(r, Delta r) = 4 pi n r^2 Delta r g+(r, Delta r)`` of 000_2cedc098acbd866b.txt
     with ``n = N / V``: the delta functions of a lattice RDF are integrated out and

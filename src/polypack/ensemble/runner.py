@@ -24,6 +24,7 @@ import csv
 import hashlib
 import json
 import math
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -35,7 +36,7 @@ from .._util import atomic_open, check_output_folder, make_folder, progress_bar
 from ..errors import InvalidInputError, PolypackError
 from ..study import Study, load_study
 from ._lock import RunFolderLock
-from .stages import check_available, child_seed_records, preflight, realize
+from .stages import check_available, child_seed_records, compile_kernels, preflight, realize
 
 __all__ = ["run_study", "EnsembleResult", "run_realization", "verify_realization", "aggregate", "regenerate"]
 
@@ -359,6 +360,10 @@ def _run_locked(study, out, seeds, executor, workers, force, progress, aggregate
                 computed.append(i)
                 bar.update(1)
         elif todo:
+            # compile the study's kernels once here: the workers then load the numba cache
+            # instead of compiling the same kernels at the same time (cold start)
+            if os.environ.get("POLYPACK_PRECOMPILE", "1") != "0":
+                compile_kernels(study.data)
             if executor is None:
                 own = executor = cf.ProcessPoolExecutor(max_workers=min(workers, len(todo)), initializer=_worker_init)
             futs = {executor.submit(run_realization, study.data, i, seeds[i]): i for i in todo}
@@ -414,14 +419,24 @@ def _run_locked(study, out, seeds, executor, workers, force, progress, aggregate
 
 
 # --------------------------------------------------------------------------- aggregation
-def _curve_sets(d):
-    """``(x_name, x, {curve: y})`` of one analysis dict, or None if it has no curves."""
-    for xname in ("r", "n_h"):
-        if xname in d and isinstance(d[xname], list):
-            x = d[xname]
-            break
-    else:
+def _curves_spec(name):
+    """The registered :class:`~polypack.registry.Curves` of analysis ``name`` (None: no curves)."""
+    from .. import registry
+
+    try:
+        return registry.get("analysis", name).outputs.curves
+    except InvalidInputError:
         return None
+
+
+def _curve_sets(d, spec):
+    """``(x_name, x, {curve: y})`` of one analysis dict, or None if it has no curves."""
+    if spec is None:
+        return None
+    xname = spec.x
+    if not (xname in d and isinstance(d[xname], list)):
+        return None
+    x = d[xname]
     curves = {}
     for k, v in d.items():
         if k == xname or k.endswith("_err"):
@@ -453,16 +468,17 @@ def ensemble_curves(records) -> dict:
             d = r["analysis"].get(name)
             ds = d if isinstance(d, list) else [d]
             per.append(ds)
+        spec = _curves_spec(name)
         for j in range(len(per[0])):
             key = name if len(per[0]) == 1 else f"{name}{j}"
-            sets = [_curve_sets(p[j]) for p in per if j < len(p)]
+            sets = [_curve_sets(p[j], spec) for p in per if j < len(p)]
             if any(s is None for s in sets):
                 continue
             xname = sets[0][0]
             length = max(len(s[1]) for s in sets)
             xs = [_as_float(s[1]) for s in sets]
             regrid = False
-            if xname == "n_h":  # histograms of different lengths: pad with p = 0
+            if spec.histogram:  # histograms of different lengths: pad with p = 0
                 x = np.arange(length, dtype=np.float64)
             elif all(xi.shape == xs[0].shape and np.array_equal(xi, xs[0]) for xi in xs):
                 x = xs[0]
@@ -474,7 +490,7 @@ def ensemble_curves(records) -> dict:
                      "curves": {}}
             cnames = sorted(set().union(*(s[2] for s in sets)))
             for c in cnames:
-                y = np.zeros((len(sets), length)) if xname == "n_h" else np.full((len(sets), length), np.nan)
+                y = np.zeros((len(sets), length)) if spec.histogram else np.full((len(sets), length), np.nan)
                 for i, s in enumerate(sets):
                     v = s[2].get(c)
                     if v is None:
@@ -610,41 +626,47 @@ def plot_grading(study: Study, records, path, fmt="png"):
     plt.close(fig)
 
 
-_YLABEL = {"rdf": "g(r)", "kfunction": "K(r)", "pores": "P(r_P > r)", "windows": "p(n_h)"}
-
-
 def plot_curves(curves: dict, folder, fmt="png", title=""):
-    """One figure per analysis: ensemble mean of each curve with its 95 % band."""
+    """One figure per analysis: ensemble mean of each curve with its 95 % band.
+
+    Labels, the curves drawn and the style come from each analysis' registered
+    :class:`~polypack.registry.Curves`.
+    """
     import matplotlib.pyplot as plt
 
     from .._util import atomic_path
 
     for name, entry in curves.items():
+        base = name.rstrip("0123456789")
+        spec = _curves_spec(base) or _curves_spec(name)
+        if spec is None:
+            continue
         fig, ax = plt.subplots(figsize=(6, 4))
         x = np.array(entry["x"], dtype=float)
         many = sum(c.startswith("partial") for c in entry["curves"]) > 6
         for c, d in entry["curves"].items():
-            if many and c.startswith("partial"):
+            if c.startswith("partial") and (many or not spec.partials):
                 continue  # too many species pairs for one plot: the total only
-            if name.startswith("pores") and c not in ("survival",):
+            if spec.plot is not None and not c.startswith("partial") and c not in spec.plot:
                 continue
-            if name.startswith("kfunction") and c.startswith("partial"):
+            if spec.plot is not None and c.startswith("partial") and "partial" not in spec.plot:
                 continue
             mean = np.array([np.nan if v is None else v for v in d["mean"]])
             lo = np.array([np.nan if v is None else v for v in d["lo"]])
             hi = np.array([np.nan if v is None else v for v in d["hi"]])
-            if name.startswith("windows"):
+            label = "total" if c in ("g", "K", "p", "survival") else c.replace("partial.", "species pair ")
+            if spec.style == "points":
                 if np.nan_to_num(mean[0]) > 0.99:
                     continue  # (almost) every window empty: a spike at n_h = 0 hides the others
-                ax.errorbar(x, mean, yerr=[mean - lo, hi - mean], fmt="o-", ms=3, label=c)
+                ax.errorbar(x, mean, yerr=[mean - lo, hi - mean], fmt="o-", ms=3, label=label)
             else:
-                (line,) = ax.plot(x, mean, lw=1.2, label=c)
+                (line,) = ax.plot(x, mean, lw=1.2, label=label)
                 ax.fill_between(x, lo, hi, color=line.get_color(), alpha=0.25, lw=0)
-        base = name.rstrip("0123456789")
-        ax.set_xlabel(entry["x_name"])
-        ax.set_ylabel(_YLABEL.get(base, name))
+        ax.set_xlabel(spec.x_label or entry["x_name"])
+        ax.set_ylabel(spec.y_label or name)
         ax.set_title(f"{title}: {name}, mean and 95 % t band over {entry['n_realizations']} realization(s)", fontsize=9)
-        ax.legend(fontsize=7)
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(fontsize=7)
         fig.tight_layout()
         target = Path(folder) / f"{name}.{fmt}"
         with atomic_path(target) as tmp:

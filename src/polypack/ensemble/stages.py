@@ -9,16 +9,17 @@ or on a Dask worker.
 
 from __future__ import annotations
 
-import inspect
 import math
 
 import numpy as np
 
+from .. import registry
 from .._util import seed_from_record, seed_record
 from ..errors import InvalidInputError
 from ..geometry import unit_ball_volume
 
-__all__ = ["make_sizes", "make_packing", "run_analyses", "realize", "stage_seeds", "check_available", "preflight"]
+__all__ = ["make_sizes", "make_packing", "run_analyses", "realize", "stage_seeds", "check_available", "preflight",
+           "study_kernels", "compile_kernels"]
 
 def stage_seeds(seed_rec):
     """Independent child seeds of one realization: ``(sizes, protocol, analysis)``."""
@@ -28,88 +29,86 @@ def stage_seeds(seed_rec):
 
 # --------------------------------------------------------------------------- sizes
 def make_model(psd: dict):
-    """The :mod:`polypack.psd` model of the ``[psd]`` table."""
-    from .. import psd as psd_mod
-    from ..study import PSD_MODELS
+    """The :mod:`polypack.psd` model of the resolved ``[psd]`` table (the registered model)."""
+    from ..psd.config import make_model as _make_model
 
-    cls_name, keys = PSD_MODELS[psd["model"]]
-    return getattr(psd_mod, cls_name)(**{k: psd[k] for k in keys if k in psd})
+    return _make_model(psd)
 
 
 def make_sizes(psd: dict, seed):
-    """A :class:`polypack.psd.SizeSet` (or a compatible object) from the ``[psd]`` table.
+    """A :class:`polypack.psd.SizeSet` from the resolved ``[psd]`` table.
 
-    Uses ``polypack.psd.<Model>(**params).sample(n=, seed=, method=)`` or
-    ``polypack.psd.discretize(model, ...)`` (§1.2 of 001_ad5bae0acea940c4.txt).
+    The same code as ``polypack psd`` (:func:`polypack.psd.config.make_sizes`):
+    ``model.sample(n=, seed=, method=)`` or ``polypack.psd.discretize(model, ...)`` (§1.2 of
+    001_ad5bae0acea940c4.txt).
     """
-    from .. import psd as psd_mod
+    from ..psd.config import make_sizes as _make_sizes
 
-    model = make_model(psd)
-    if psd["sampling"] == "discretize":
-        kw = {k: psd[k] for k in ("n_classes", "spacing", "min_per_class", "min_total", "max_total") if k in psd}
-        return psd_mod.discretize(model, seed=seed, method=psd.get("method", "random"), **kw)
-    return model.sample(n=psd["n"], seed=seed, method=psd.get("method", "random"))
+    return _make_sizes(psd, seed)
 
 
 # --------------------------------------------------------------------------- packing
-def _accepted(func, kwargs):
-    """The subset of ``kwargs`` that ``func`` accepts (all of them if it takes ``**kw``)."""
-    sig = inspect.signature(func)
-    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in sig.parameters.values()):
-        return dict(kwargs)
-    return {k: v for k, v in kwargs.items() if k in sig.parameters}
+def _protocol(study_data):
+    return registry.get("protocol", study_data["protocol"]["kind"], path="protocol.kind")
+
+
+def _shake_options(pr):
+    from ..generate._capabilities import shake_options
+
+    return shake_options(pr)
 
 
 _SHAKE_KEYS = (("shake_radius", "shake_radius"), ("max_trials", "max_trials"), ("shake_method", "method"),
                ("adaptive", "adaptive"))
 
 
-def _shake_options(pr):
-    opts = {}
-    for key, arg in _SHAKE_KEYS:
-        if key in pr:
-            opts[arg] = pr[key]
-    return opts
+def study_kernels(study_data) -> list[str]:
+    """The numba kernel modules a study runs (its protocol's and analyses', plus the monitor's)."""
+    mods = list(_protocol(study_data).kernels)
+    for name in sorted(study_data.get("analysis", {})):
+        mods += list(registry.get("analysis", name).kernels)
+    mods += ["polypack._kernels.cells", "polypack._kernels.analysis"]  # the contact-value monitor of shaking
+    return list(dict.fromkeys(mods))
+
+
+def compile_kernels(study_data) -> dict:
+    """Compile (or load from the numba cache) the kernels a study needs, in this process.
+
+    Run before a process pool starts, so the workers load the cache instead of all
+    compiling the same kernels at once. Returns ``{module: seconds}``.
+    """
+    import importlib
+    import time
+
+    out = {}
+    for mod in study_kernels(study_data):
+        t0 = time.perf_counter()
+        fn = getattr(importlib.import_module(mod), "warmup", None)
+        if fn is not None:
+            fn()
+        out[mod] = time.perf_counter() - t0
+    return out
 
 
 def check_available(study_data):
     """Raise InvalidInputError (with the key path) if a stage the study needs is missing.
 
-    Run by the runner before any realization starts, so a study asking for SCRM on a
-    build without :func:`polypack.scrm` fails at once.
+    Run by the runner before any realization starts, so a study asking for a protocol or
+    analysis whose implementation does not import here fails at once.
     """
-    import polypack as pp
-
     pr = study_data["protocol"]
-    needs = ["pack"]
-    if pr["kind"] == "scrm":
-        needs.append("scrm")
-    if pr.get("global_shakes", 0) > 0:
-        needs.append("shake")
-    for name in needs:
-        try:
-            getattr(pp, name)
-        except (ImportError, AttributeError):
-            raise InvalidInputError(
-                f'protocol.kind = "{pr["kind"]}": polypack.{name} is not available in this installation'
-            ) from None
-    try:
-        from .. import psd as psd_mod  # noqa: F401
-        from ..study import PSD_MODELS
-
-        getattr(psd_mod, PSD_MODELS[study_data["psd"]["model"]][0])
-    except (ImportError, AttributeError):
+    cap = _protocol(study_data)
+    if not cap.available():
         raise InvalidInputError(
-            f'psd.model = "{study_data["psd"]["model"]}": not available in this installation'
-        ) from None
+            f'protocol.kind = "{pr["kind"]}": {", ".join(cap.requires)} is not available in this installation'
+        )
+    model = registry.get("psd", study_data["psd"]["model"], path="psd.model")
+    if not model.available():
+        raise InvalidInputError(f'psd.model = "{study_data["psd"]["model"]}": not available in this installation')
     for name in study_data.get("analysis", {}):
-        cls = _ANALYSES[name][0]
-        try:
-            import polypack.analysis as pa
-
-            getattr(pa, cls)
-        except (ImportError, AttributeError):
-            raise InvalidInputError(f"analysis.{name}: polypack.analysis.{cls} is not available here") from None
+        cap = registry.get("analysis", name, path="analysis")
+        if not cap.available():
+            raise InvalidInputError(f"analysis.{name}: {', '.join(cap.requires)} is not available here")
 
 
 def _check_shake_options(pr):
@@ -161,16 +160,17 @@ def preflight(study_data, seed_rec):
     Every analysis is built with its options; the box follows from the sizes and the
     target volume fraction, so an ``r_max`` or window beyond half the box, a sphere
     larger than half the box, or equal spheres above the FCC density (which would fail
-    or jam after every packing) are reported at once with their key paths.
+    or jam after every packing) are reported at once with their key paths (each
+    capability's ``preflight`` hook, then the window radii).
     """
     _check_shake_options(study_data["protocol"])
     _check_analysis_options(study_data.get("analysis", {}))
     s_sizes, _, _ = stage_seeds(seed_rec)
     sizes = make_sizes(study_data["psd"], s_sizes)
     vf = study_data["protocol"]["volume_fraction"]
+    r = np.asarray(sizes.radii, dtype=np.float64)
     if isinstance(vf, str):
         return
-    r = np.asarray(sizes.radii, dtype=np.float64)
     if np.ptp(r) == 0 and vf > _KEPLER:
         raise InvalidInputError(
             f"protocol.volume_fraction = {vf!r}: equal spheres cannot exceed {_KEPLER:.4f} (the FCC density); "
@@ -182,13 +182,11 @@ def preflight(study_data, seed_rec):
             f"protocol.volume_fraction = {vf!r}: the largest sphere (diameter {2 * float(r.max()):.4g}) would exceed "
             f"half the periodic box ({half:.4g}) of N={r.size}; use more particles (psd.n) or a smaller size ratio"
         )
-    for name in ("rdf", "kfunction"):
-        opts = study_data.get("analysis", {}).get(name)
-        if opts and opts["r_max"] > half:
-            raise InvalidInputError(
-                f"analysis.{name}.r_max = {opts['r_max']!r}: exceeds half the box length {half:.4g} of this study "
-                f"(N={r.size} at volume fraction {vf}); use r_max <= {half:.4g} or more particles"
-            )
+    info = {"n": int(r.size), "volume_fraction": vf, "half_box": half}
+    for name in sorted(study_data.get("analysis", {})):
+        cap = registry.get("analysis", name)
+        if cap.preflight is not None:
+            registry._load(cap.preflight)(study_data["analysis"][name], info, f"analysis.{name}")
     win = study_data.get("analysis", {}).get("windows")
     if win:
         species = np.asarray(getattr(sizes, "species", None) if getattr(sizes, "species", None) is not None
@@ -208,95 +206,39 @@ def preflight(study_data, seed_rec):
 
 
 def make_packing(sizes, protocol: dict, seed):
-    """Run the packing protocol of the ``[protocol]`` table.
+    """Run the registered packing protocol of the ``[protocol]`` table (``kind``).
 
     ``kind = "crm"``: :func:`polypack.pack` (CRM, §3.1 of 000_2cedc098acbd866b.txt), then
     ``global_shakes`` global shakes with :func:`polypack.shake` if M > 0.
     ``kind = "scrm"``: :func:`polypack.scrm` (CRM interleaved with shaking, §3.2, then
-    ``global_shakes`` global shakes).
+    ``global_shakes`` global shakes). Other kinds: see ``polypack.registry.names("protocol")``.
     """
-    import polypack as pp
+    from ..analysis import ContactValueMonitor
 
-    pr = protocol
-    s_pack, s_shake = seed.spawn(2)
-    grow = {}
-    if "growth_rate" in pr:
-        grow["growth_rate"] = pr["growth_rate"]
-    if "max_seconds" in pr:
-        grow["max_seconds"] = pr["max_seconds"]
-    m = int(pr.get("global_shakes", 0))
-    if pr["kind"] == "scrm":
-        kw = dict(global_shakes=m, **_shake_options(pr))
-        if "growth_rate" in pr:
-            kw["growth_rate"] = pr["growth_rate"]
-        for key in ("growth_steps", "start_fraction", "stage_shakes"):
-            if key in pr:
-                kw[key] = pr[key]
-        if "schedule" in pr:
-            sched = list(pr["schedule"])
-            if sched[-1] < pr["volume_fraction"]:
-                sched.append(pr["volume_fraction"])
-            kw["schedule"] = sched
-        return pp.scrm(sizes, volume_fraction=pr["volume_fraction"], seed=s_pack, progress=False, **kw)
-    pk = pp.pack(sizes, pr["volume_fraction"], seed=s_pack, progress=False, **grow)
-    if m > 0:
-        pk = pp.shake(pk, global_shakes=m, seed=s_shake, progress=False, **_shake_options(pr))
-    return pk
+    cap = registry.get("protocol", protocol["kind"], path="protocol.kind")
+    opts = {k: v for k, v in protocol.items() if k != "kind"}
+    return cap.load()(sizes, opts, seed, monitor=ContactValueMonitor())
 
 
 # --------------------------------------------------------------------------- analyses
-def _rdf(pa, opts, packing, seed):
-    kw = {k: opts[k] for k in ("dr", "method", "scale") if k in opts}
-    return pa.RDF(opts["r_max"], **kw).compute(packing)
-
-
-def _kfunction(pa, opts, packing, seed):
-    kw = {k: opts[k] for k in ("dr", "scale") if k in opts}
-    return pa.KFunction(opts["r_max"], **kw).compute(packing)
-
-
-def _windows(pa, opts, packing, seed):
-    radii = opts["window_radius"]
-    kw = {k: opts[k] for k in ("reference",) if k in opts}
-    if isinstance(radii, list):
-        return [pa.WindowCounts(window_radius=r, **kw).compute(packing) for r in radii]
-    return pa.WindowCounts(window_radius=radii, **kw).compute(packing)
-
-
-def _contacts(pa, opts, packing, seed):
-    kw = {k: opts[k] for k in ("tolerance", "min_contacts") if k in opts}
-    return pa.Contacts(**kw).compute(packing)
-
-
-def _pores(pa, opts, packing, seed):
-    kw = {k: opts[k] for k in ("n_grid",) if k in opts}
-    return pa.PoreSizes(n_points=opts["n_points"], seed=seed, **kw).compute(packing)
-
-
-_ANALYSES = {
-    "rdf": ("RDF", _rdf),
-    "kfunction": ("KFunction", _kfunction),
-    "windows": ("WindowCounts", _windows),
-    "contacts": ("Contacts", _contacts),
-    "pores": ("PoreSizes", _pores),
-}
+def _as_dict(est):
+    return est if isinstance(est, dict) else est.to_dict()
 
 
 def run_analyses(packing, analyses: dict, seed) -> dict:
-    """``{name: estimator.to_dict()}`` for every ``[analysis.*]`` table (§2 of 000_2cedc098acbd866b.txt).
+    """``{name: result dict}`` for every ``[analysis.*]`` table (§2 of 000_2cedc098acbd866b.txt).
 
-    Window histograms with several radii give a list of dicts.
+    Each registered analysis runs with its own child seed; one that returns several
+    estimators (window histograms with several radii) gives a list of dicts.
     """
-    import polypack.analysis as pa
-
     out = {}
     seeds = dict(zip(sorted(analyses), seed.spawn(len(analyses))))
     from .. import _interrupt
 
     for name in sorted(analyses):
         _interrupt.check(f"interrupted before analysis {name}")
-        est = _ANALYSES[name][1](pa, analyses[name], packing, seeds[name])
-        out[name] = [e.to_dict() for e in est] if isinstance(est, list) else est.to_dict()
+        est = registry.get("analysis", name, path="analysis").load()(packing, analyses[name], seeds[name])
+        out[name] = [_as_dict(e) for e in est] if isinstance(est, list) else _as_dict(est)
     return out
 
 
@@ -353,33 +295,44 @@ def protocol_stats(meta: dict) -> dict:
     return out
 
 
+def _flatten(prefix, v, out):
+    """Numbers of a nested per-species matrix (``prefix.i-j``) or table (``prefix.key``) into ``out``."""
+    if isinstance(v, list):
+        for i, x in enumerate(v):
+            if isinstance(x, list):
+                for j, y in enumerate(x):
+                    out[f"{prefix}.{i}-{j}"] = y
+            else:
+                out[f"{prefix}.{i}"] = x
+    elif isinstance(v, dict):
+        for fk, fv in v.items():
+            if isinstance(fv, dict):
+                for kk, vv in fv.items():
+                    if isinstance(vv, (int, float)) and not isinstance(vv, bool):
+                        out[f"{prefix}.{fk}.{kk}"] = vv
+            elif isinstance(fv, (int, float)) and not isinstance(fv, bool):
+                out[f"{prefix}.{fk}"] = fv
+
+
 def scalar_descriptors(analyses: dict) -> dict:
-    """Scalar descriptors for the summary table (coordination, window moments, pore fit ...)."""
+    """Scalar descriptors for the summary table, as each analysis declares them (:class:`registry.Outputs`)."""
     out = {}
     for name, d in analyses.items():
+        try:
+            outputs = registry.get("analysis", name).outputs
+        except InvalidInputError:
+            outputs = registry.Outputs()
+        skip = set(registry.BASE_SCALAR_SKIP) | set(outputs.scalar_skip)
         items = list(enumerate(d)) if isinstance(d, list) else [(None, d)]
         for idx, dd in items:
             prefix = name if idx is None else f"{name}{idx}"
             for k, v in dd.items():
-                if k in ("n_realizations", "estimator", "dr", "r_max", "n_points", "tolerance", "min_contacts"):
+                if k in skip or (outputs.scalars is not None and k not in outputs.scalars and k not in outputs.flatten):
                     continue
                 if isinstance(v, (int, float)) and not isinstance(v, bool):
                     out[f"{prefix}.{k}"] = v
-                elif isinstance(v, list) and name == "contacts" and k == "per_species":
-                    for i, x in enumerate(v):
-                        if isinstance(x, list):
-                            for j, y in enumerate(x):
-                                out[f"{prefix}.{k}.{i}-{j}"] = y
-                        else:
-                            out[f"{prefix}.{k}.{i}"] = x
-                elif isinstance(v, dict) and name == "pores" and k == "fit":
-                    for fk, fv in v.items():
-                        if isinstance(fv, dict):
-                            for kk, vv in fv.items():
-                                if isinstance(vv, (int, float)) and not isinstance(vv, bool):
-                                    out[f"{prefix}.fit.{fk}.{kk}"] = vv
-                        elif isinstance(fv, (int, float)) and not isinstance(fv, bool):
-                            out[f"{prefix}.fit.{fk}"] = fv
+                elif k in outputs.flatten and isinstance(v, (list, dict)):
+                    _flatten(f"{prefix}.{k}", v, out)
     return out
 
 

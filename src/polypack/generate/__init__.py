@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from importlib import import_module as _import_module
 
-__all__ = ["pack", "shake", "scrm", "deposit", "brownian", "brownian_bonds", "dlvo_parameters", "dlvo_potential",
-           "dlvo_force", "dlvo_extrema", "plot_dlvo", "DLVO_DEFAULTS"]
+__all__ = ["pack", "shake", "scrm", "deposit", "PackTuning", "ShakeTuning", "brownian", "brownian_bonds",
+           "dlvo_parameters", "dlvo_potential", "dlvo_force", "dlvo_extrema", "plot_dlvo", "DLVO_DEFAULTS"]
 
 _LAZY = {
     "pack": ("polypack.generate.lubachevsky", "pack"),
@@ -24,6 +24,8 @@ _LAZY = {
     "dlvo_extrema": ("polypack.generate.dlvo", "dlvo_extrema"),
     "plot_dlvo": ("polypack.generate.dlvo", "plot_dlvo"),
     "DLVO_DEFAULTS": ("polypack.generate.dlvo", "DLVO_DEFAULTS"),
+    "PackTuning": ("polypack.generate.lubachevsky", "PackTuning"),
+    "ShakeTuning": ("polypack.generate.shake", "ShakeTuning"),
 }
 
 

@@ -11,8 +11,10 @@ rescaling the velocities at every synchronisation.  The numerical engine lives i
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -22,22 +24,8 @@ from ..errors import InfeasibleError, Interrupted, InvalidInputError, OverlapErr
 from ..geometry import unit_ball_volume
 from ..packing import Packing
 
-__all__ = ["pack", "carnahan_starling"]
+__all__ = ["pack", "PackTuning", "carnahan_starling"]
 
-_DEFAULTS = dict(
-    species=None,
-    max_pressure=1e6,
-    pressure_window=None,
-    skin=None,
-    dilute_skin=None,
-    chunk_collisions=None,
-    jammed_reference_fraction=0.5,
-    max_events=None,
-    sync_every=None,
-    margin_cap=1.0,
-    fast_growth=10.0,
-    fast_growth_until=0.3,
-)
 
 _STATUS = {0: "running", 1: "target", 2: "jammed", 3: "box_limit", 4: "event_budget"}
 
@@ -126,16 +114,61 @@ def _parse_sizes(sizes, species):
     return radii, sp, start
 
 
+@dataclass(frozen=True)
+class PackTuning:
+    """Speed knobs of :func:`pack`: how fast a pack is made, not which statistics it has.
+
+    Different values give different (equally valid) trajectories for the same seed; the
+    defaults are tuned for speed. See :func:`pack` for their meaning.
+
+    Attributes
+    ----------
+    skin : float, optional
+        Neighbour-shell margin as a fraction of the radius (default :func:`default_skin`).
+    dilute_skin : float, optional
+        The same at the start of the run (default ``skin``).
+    chunk_collisions : int, optional
+        Collisions per compiled call between progress updates and budget or Ctrl-C
+        checks (default ``20 N`` clipped to [2e5, 1e7]).
+    sync_every : int, optional
+        Collisions between full synchronisations (default ``4 N``).
+    margin_cap : float
+        Shell margin of a large sphere at most this many times that of a median sphere.
+    """
+
+    skin: float | None = None
+    dilute_skin: float | None = None
+    chunk_collisions: int | None = None
+    sync_every: int | None = None
+    margin_cap: float = 1.0
+
+    def __post_init__(self):
+        from .. import _validate as v
+
+        for name, check in (("skin", v.positive), ("dilute_skin", v.positive), ("chunk_collisions", v.int_min(1)),
+                            ("sync_every", v.int_min(0)), ("margin_cap", v.positive)):
+            value = getattr(self, name)
+            if value is not None:
+                object.__setattr__(self, name, v.check(name, value, check))
+
+
 def pack(
     sizes,
     volume_fraction=0.6,
     *,
     seed=None,
+    species=None,
     growth_rate=None,
     max_collisions=None,
     max_seconds=None,
+    max_events=None,
+    max_pressure=1e6,
+    pressure_window=None,
+    jammed_reference_fraction=0.5,
+    fast_growth=10.0,
+    fast_growth_until=0.3,
+    tuning=None,
     progress=None,
-    **options,
 ) -> Packing:
     """Random dense pack of polydisperse spheres by Lubachevsky–Stillinger growth (exact EDMD).
 
@@ -170,23 +203,27 @@ def pack(
     progress : bool, optional
         Progress bar (volume fraction, reduced pressure, collisions/s); default:
         only on a terminal.
-    **options
-        ``species`` (with an array of radii), ``max_pressure`` (jamming threshold on
-        the reduced pressure ``Z = PV/(NkT)``, default 1e6), ``pressure_window``
-        (collisions per pressure estimate, default ``N``), ``skin`` (neighbour shell
-        margin as a fraction of the radius; default :func:`default_skin`: 0.25 for
-        equal spheres, up to 0.6 when most of the volume is in spheres much larger than
-        the median one, whose mobile fines make shell exits the main cost),
-        ``dilute_skin`` (the same at the start of the run, default ``skin``), ``chunk_collisions``
-        (collisions per compiled call between progress updates and budget or Ctrl-C checks,
-        default ``20N`` clipped to [2e5, 1e7]; the trajectory depends on it, never on the clock),
-        ``jammed_reference_fraction`` (0.5), ``max_events``, ``sync_every`` (collisions
-        between full synchronisations with kinetic-energy reset, default ``4N``),
-        ``margin_cap`` (shell margin of a large sphere at most this many times the
-        margin of a median sphere, default 1), ``fast_growth`` (growth this many times
-        faster than ``growth_rate`` during the dilute start, default 10; 1 grows at one
-        rate throughout) and ``fast_growth_until`` (the volume fraction where the fast
-        start ends, default 0.3, at most half the target).
+    species : array_like of int, optional
+        Species of each sphere when ``sizes`` is an array of radii.
+    max_events : int, optional
+        Event budget (collisions and shell exits); status ``"event_budget"``.
+    max_pressure : float
+        Jamming threshold on the reduced pressure ``Z = PV/(NkT)`` (default 1e6, > 3).
+    pressure_window : int, optional
+        Collisions per pressure estimate (default ``N``).
+    jammed_reference_fraction : float
+        Reference fraction of the jamming estimate (0.5).
+    fast_growth : float
+        Growth this many times faster than ``growth_rate`` during the dilute start
+        (default 10; 1 grows at one rate throughout).
+    fast_growth_until : float
+        Volume fraction where the fast start ends (default 0.3, at most half the target).
+    tuning : PackTuning, optional
+        Speed knobs (neighbour-shell margins, chunk size, synchronisation period):
+        ``skin`` defaults to :func:`default_skin` (0.25 for equal spheres, up to 0.6 when
+        most of the volume is in spheres much larger than the median one, whose mobile
+        fines make shell exits the main cost); the trajectory depends on
+        ``chunk_collisions``, never on the clock.
 
     Returns
     -------
@@ -234,11 +271,13 @@ def pack(
     """
     from .._kernels import edmd
 
-    unknown = set(options) - set(_DEFAULTS)
-    if unknown:
-        raise InvalidInputError(f"unknown option(s) {sorted(unknown)}; allowed: {sorted(_DEFAULTS)}")
-    opt = dict(_DEFAULTS)
-    opt.update(options)
+    if tuning is None:
+        tuning = PackTuning()
+    elif not isinstance(tuning, PackTuning):
+        raise InvalidInputError(f"tuning={tuning!r}: must be a polypack.generate.PackTuning")
+    opt = dict(species=species, max_pressure=max_pressure, pressure_window=pressure_window,
+               jammed_reference_fraction=jammed_reference_fraction, max_events=max_events,
+               fast_growth=fast_growth, fast_growth_until=fast_growth_until, **dataclasses.asdict(tuning))
     wall0 = time.perf_counter()
 
     radii, species, start = _parse_sizes(sizes, opt["species"])
@@ -350,8 +389,8 @@ def pack(
     t_fast = t_unit * (phi_fast * box_vol / vol_unit) ** (1.0 / 3.0)
     fast_phase = fast > 1.0 and t_fast > t0
 
-    state = np.zeros(8)
-    state[0] = t0
+    state = np.zeros(edmd.N_STATE)
+    state[edmd.S_TIME] = t0
     hist_rows = []
     status = "running"
     # Chunks of a fixed collision count: each chunk starts with a full synchronisation
@@ -367,7 +406,7 @@ def pack(
     t_begin_chunks = time.perf_counter()
     bar = progress_bar(total=None, desc="pack", progress=progress, unit="coll")
     last_p = float("nan")
-    code = 0
+    code = edmd.ChunkStatus.CHUNK_DONE
     # Ctrl-C is deferred to the end of the current chunk (a safe point: every sphere is
     # synchronised there), so the kernel is never torn apart mid-update
     with _interrupt.deferred():
@@ -378,23 +417,24 @@ def pack(
                     break
                 budget = chunk
                 if max_collisions is not None:
-                    budget = min(budget, int(max_collisions) - int(state[1]))
+                    budget = min(budget, int(max_collisions) - int(state[edmd.S_COLLISIONS]))
                     if budget <= 0:
                         status = "collision_budget"
                         break
                 ev_budget = 1e18
                 if max_events is not None:
-                    ev_budget = int(max_events) - int(state[2])
+                    ev_budget = int(max_events) - int(state[edmd.S_EVENTS])
                     if ev_budget <= 0:
                         status = "event_budget"
                         break
-                params = np.array(
-                    [t_fast if fast_phase else t_stop, float(budget), p_max, float(window), t_ref, skin,
-                     float(ev_budget), float(opt["sync_every"] or 0), dilute_skin, float(opt["margin_cap"]),
-                     1.0 / fast if fast_phase else 1.0]
+                params = edmd.make_params(
+                    t_stop=t_fast if fast_phase else t_stop, max_collisions=float(budget), max_pressure=p_max,
+                    pressure_window=float(window), t_ref=t_ref, alpha=skin, max_events=float(ev_budget),
+                    sync_every=float(opt["sync_every"] or 0), dilute=dilute_skin,
+                    margin_cap=float(opt["margin_cap"]), speed=1.0 / fast if fast_phase else 1.0,
                 )
                 hist = np.zeros((budget // max(window, 1) + 2, 3))
-                c0 = state[1]
+                c0 = state[edmd.S_COLLISIONS]
                 tc = time.perf_counter()
                 code, nh = edmd.run_chunk(x, v, g, box, state, params, hist)
                 dtc = time.perf_counter() - tc
@@ -402,26 +442,26 @@ def pack(
                     for row in hist[:nh]:
                         hist_rows.append((phi_at(row[0]), row[1]))
                         last_p = row[1]
-                done = state[1] - c0
+                done = state[edmd.S_COLLISIONS] - c0
                 rate = done / dtc if dtc > 0 else 0.0
                 bar.update(int(done))
-                bar.set_postfix(phi=f"{phi_at(state[0]):.5f}", p=f"{last_p:.4g}", rate=f"{rate:.3g}/s")
-                code = int(code)
-                if fast_phase and code == 1:  # end of the fast start: on at the requested rate
+                bar.set_postfix(phi=f"{phi_at(state[edmd.S_TIME]):.5f}", p=f"{last_p:.4g}", rate=f"{rate:.3g}/s")
+                code = edmd.ChunkStatus(int(code))
+                if fast_phase and code == edmd.ChunkStatus.REACHED_T_STOP:  # end of the fast start
                     fast_phase = False
                     continue
-                if code == 1:
+                if code == edmd.ChunkStatus.REACHED_T_STOP:
                     status = "target" if target is not None else "jammed"
                     if target is None:
-                        code = 3  # reached the box limit without jamming
+                        code = edmd.ChunkStatus.BOX_LIMIT  # reached the box limit without jamming
                     break
-                if code == 2:
+                if code == edmd.ChunkStatus.JAMMED:
                     status = "jammed"
                     break
-                if code == 3:
+                if code == edmd.ChunkStatus.BOX_LIMIT:
                     status = "jammed"
                     break
-                if code == 4:
+                if code == edmd.ChunkStatus.EVENT_BUDGET:
                     status = "event_budget"
                     break
                 if max_seconds is not None and time.perf_counter() - wall0 >= float(max_seconds):
@@ -431,10 +471,10 @@ def pack(
             bar.close()
     run_time = time.perf_counter() - t_begin_chunks
 
-    t = float(state[0])
+    t = float(state[edmd.S_TIME])
     if status == "interrupted" and not t > 0.0:
         raise Interrupted("pack interrupted before the spheres had grown; nothing to save", partial=None)
-    if status == "jammed" and code == 3 and target is None:
+    if status == "jammed" and code == edmd.ChunkStatus.BOX_LIMIT and target is None:
         raise InfeasibleError(
             f"{n} spheres cannot jam in a periodic box before the largest one reaches half the box; "
             "use more spheres"
@@ -463,7 +503,7 @@ def pack(
                 pos, box_out, gap = pos2, box2, gap2
                 break
             shrink *= 1.0 - 1e-15 - abs(gap2)
-    collisions = int(state[1])
+    collisions = int(state[edmd.S_COLLISIONS])
     phi_reached = vol_spheres / float(np.prod(box_out))
     p_last = float(hist_rows[-1][1]) if hist_rows else float("nan")
     jam = phi_reached / (1.0 - 3.0 / p_last) if (p_last > 3.0 and math.isfinite(p_last)) else float("nan")
@@ -478,9 +518,9 @@ def pack(
         "target": "jammed" if target is None else target,
         "volume_fraction": phi_reached,
         "collisions": collisions,
-        "events": int(state[2]),
-        "rebuilds": int(state[3]),
-        "shell_rebuilds": int(state[6]),
+        "events": int(state[edmd.S_EVENTS]),
+        "rebuilds": int(state[edmd.S_REBUILDS]),
+        "shell_rebuilds": int(state[edmd.S_LOCAL_REBUILDS]),
         "wall_time": time.perf_counter() - wall0,
         "run_time": run_time,
         "collisions_per_second": collisions / run_time if run_time > 0 else 0.0,

@@ -15,10 +15,12 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 
 import numpy as np
 
 from .. import _interrupt
+from .. import _validate as _v
 from .._util import as_seed_sequence, progress_bar, seed_record
 from ..errors import InfeasibleError, Interrupted, InvalidInputError, OverlapError
 from ..packing import Packing
@@ -55,42 +57,49 @@ def _per_species(name, value, n_species, kind=float):
 
 
 def _check_int(name, value, minimum):
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
-        if isinstance(value, float) and value.is_integer():
-            value = int(value)
-        else:
-            raise InvalidInputError(f"{name}={value!r}: must be an integer >= {minimum}")
-    if value < minimum:
-        raise InvalidInputError(f"{name}={value!r}: must be an integer >= {minimum}")
-    return int(value)
+    """An integer ``>= minimum`` (the shared check of :mod:`polypack._validate`)."""
+    return int(_v.check(name, value, _v.int_min(minimum)))
 
 
-def _contact_monitor(packing, options, pairs):
-    from ..analysis import contact_value
+@dataclass(frozen=True)
+class ShakeTuning:
+    """Speed knobs of :func:`shake`: both neighbour structures give identical results.
 
-    vals = contact_value(packing, pairs=pairs, **options)
-    return {f"{k}-{m}": float(vals[(k, m)]) for k, m in pairs}
+    Attributes
+    ----------
+    skin : float, optional
+        Verlet-list margin (see :func:`shake`).
+    neighbours : {"auto", "verlet", "cells"}
+        Neighbour structure for the overlap test.
+    """
+
+    skin: float | None = None
+    neighbours: str = "auto"
+
+    def __post_init__(self):
+        if self.skin is not None:
+            object.__setattr__(self, "skin", _v.check("skin", self.skin, _v.positive))
+        _v.check("neighbours", self.neighbours, _v.choice("auto", "verlet", "cells"))
 
 
 def shake(
     packing,
+    *,
     global_shakes=60,
     shake_radius=None,
     max_trials=None,
     method="paper",
     seed=None,
-    progress=None,
-    *,
     order=None,
     adaptive=False,
     adapt_shakes=None,
     adapt_factor=0.05,
     target_acceptance=0.4,
-    skin=None,
-    neighbours="auto",
+    monitor=None,
     monitor_every=None,
-    monitor_options=None,
     callback=None,
+    tuning=None,
+    progress=None,
 ) -> Packing:
     """Monte-Carlo shaking of a hard-sphere pack (§3.2 of 000_2cedc098acbd866b.txt).
 
@@ -153,26 +162,27 @@ def shake(
         Growth factor per visit of the seed's adaptation (default 0.05).
     target_acceptance : float
         Target acceptance of the Metropolis adaptation (default 0.4).
-    skin : float, optional
-        Relative Verlet skin ``s`` (pairs with ``d <= (1 + s)(r_i + r_j)`` are
-        listed); default ``max(0.5, 4 max R_sh)``, capped by the box, and widened
-        while running if the list has to be rebuilt often.  Affects speed only: the
-        overlap test is exact for any skin, so results do not depend on it.
-    neighbours : {"auto", "verlet", "cells"}
-        Neighbour structure for the overlap test: the size-aware Verlet list, or
-        linked cell lists of side ``2 r_max`` plus the largest step (cheaper for large
-        steps, e.g. Metropolis in a dilute fluid, but only for similar sizes).
-        ``"auto"`` uses cells when ``r_max <= 2 r_min`` and ``max R_sh >= 0.25``.
-        Both tests are exact, so the results are identical.
+    tuning : ShakeTuning, optional
+        Speed knobs. ``skin``: relative Verlet skin ``s`` (pairs with
+        ``d <= (1 + s)(r_i + r_j)`` are listed); default ``max(0.5, 4 max R_sh)``,
+        capped by the box, and widened while running if the list has to be rebuilt
+        often; the overlap test is exact for any skin, so results do not depend on it.
+        ``neighbours``: ``"verlet"`` (the size-aware Verlet list), ``"cells"`` (linked
+        cell lists of side ``2 r_max`` plus the largest step, cheaper for large steps,
+        e.g. Metropolis in a dilute fluid, but only for similar sizes) or ``"auto"``
+        (cells when ``r_max <= 2 r_min`` and ``max R_sh >= 0.25``); both tests are
+        exact, so the results are identical.
+    monitor : callable, optional
+        Convergence monitor ``monitor(packing) -> {key: float}``, e.g.
+        :class:`polypack.analysis.ContactValueMonitor` (the contact values
+        ``g_km(a_k + a_m)+`` per species pair ``"k-m"``).  Its values are recorded in
+        ``meta["shake"]["monitor"][monitor.name]`` (``name`` attribute, default
+        ``"values"``) with ``monitor.options`` (if any).  Default: no monitor.  The
+        generators never import :mod:`polypack.analysis`; ``polypack run`` passes the
+        contact-value monitor.
     monitor_every : int, optional
-        Record the contact values ``g_km(a_k + a_m)+`` (via
-        :func:`polypack.analysis.contact_value`) every this many global shakes;
-        default ``None`` records only before and after, ``0`` never.
-    monitor_options : dict, optional
-        Options of :func:`polypack.analysis.contact_value` for the monitor; default
-        ``{"width": 0.05, "n_bins": 10, "degree": 1}`` (linear extrapolation over a
-        5 % gap window).  The seed's own estimator, the histogram value in
-        ``[2a, 2a + 0.01a)`` (§5.1), is ``{"width": 0.005, "n_bins": 1, "degree": 0}``.
+        With a ``monitor``: record every this many global shakes; default ``None``
+        records only before and after, ``0`` never.
     callback : callable, optional
         ``callback(m, packing)`` after every global shake ``m = 1..M``.
 
@@ -190,7 +200,8 @@ def shake(
         drives to 1/2; ``None`` otherwise);
         ``net_displacement``: rows ``[m, per-species rms displacement since the start
         over a_i]`` (after every shake when monitoring, else at the end);
-        ``monitor`` (``global_shake`` and ``contact_value`` per pair ``"k-m"``),
+        ``monitor`` (``global_shake`` and the monitor's values, e.g. ``contact_value`` per
+        pair ``"k-m"``; None without a monitor),
         ``trials``, ``accepted``, ``acceptance`` (overall), ``trial_moves_per_second``,
         ``wall_time``, ``rebuilds``,
         ``min_gap``.  ``meta["history"]`` gets a summary entry.
@@ -221,6 +232,11 @@ def shake(
         )
     if packing.n < 2:
         raise InvalidInputError(f"shake needs at least 2 spheres, got {packing.n}")
+    if tuning is None:
+        tuning = ShakeTuning()
+    elif not isinstance(tuning, ShakeTuning):
+        raise InvalidInputError(f"tuning={tuning!r}: must be a polypack.generate.ShakeTuning")
+    skin, neighbours = tuning.skin, tuning.neighbours
     if method not in _METHOD_CODE:
         raise InvalidInputError(f"method={method!r}: allowed are {', '.join(map(repr, METHODS))}")
     global_shakes = _check_int("global_shakes", global_shakes, 0)
@@ -253,13 +269,10 @@ def shake(
         raise InvalidInputError(f"target_acceptance={target_acceptance!r}: must be in (0, 1)")
     if monitor_every is not None:
         monitor_every = _check_int("monitor_every", monitor_every, 0)
-    mon_opts = {"width": 0.05, "n_bins": 10, "degree": 1}
-    if monitor_options is not None:
-        if not isinstance(monitor_options, dict) or set(monitor_options) - set(mon_opts):
-            raise InvalidInputError(
-                f"monitor_options={monitor_options!r}: a dict with keys among {sorted(mon_opts)}"
-            )
-        mon_opts.update(monitor_options)
+    if monitor is not None and not callable(monitor):
+        raise InvalidInputError(f"monitor={monitor!r}: must be callable as monitor(packing) -> dict of floats")
+    if monitor is None:
+        monitor_every = 0
     if neighbours not in ("auto", "verlet", "cells"):
         raise InvalidInputError(f"neighbours={neighbours!r}: allowed are 'auto', 'verlet' and 'cells'")
     if callback is not None and not callable(callback):
@@ -341,15 +354,16 @@ def shake(
     rebuilds = 0
 
     counts = np.bincount(species, minlength=ns).astype(np.float64)
-    present = [k for k in range(ns) if counts[k] > 0]
-    pairs = [(k, m) for ki, k in enumerate(present) for m in present[ki:]]
-    monitor = {"global_shake": [], "contact_value": {f"{k}-{m}": [] for k, m in pairs}, "options": mon_opts}
+    mon_name = str(getattr(monitor, "name", "values"))
+    mon_record = {"global_shake": [], mon_name: {}}
+    if getattr(monitor, "options", None) is not None:
+        mon_record["options"] = dict(monitor.options)
 
     def record(m, pk):
-        monitor["global_shake"].append(m)
-        vals = _contact_monitor(pk, mon_opts, pairs)
+        mon_record["global_shake"].append(m)
+        vals = monitor(pk)
         for key, v in vals.items():
-            monitor["contact_value"][key].append(v)
+            mon_record[mon_name].setdefault(str(key), []).append(float(v))
 
     if monitor_every != 0:
         record(0, packing)
@@ -496,13 +510,13 @@ def shake(
         "wall_time": None,
         "min_gap": float(gap_out),
         "input_min_gap": float(gap_in),
-        "monitor": monitor if monitor_every != 0 else None,
+        "monitor": mon_record if monitor_every != 0 else None,
         **hist,
     }
     run["wall_time"] = time.perf_counter() - wall0
     summary = {k: v for k, v in run.items() if k not in hist and k != "monitor"}
     if run["monitor"] is not None:
-        summary["contact_value_final"] = {k: v[-1] for k, v in monitor["contact_value"].items()}
+        summary[f"{mon_name}_final"] = {k: v[-1] for k, v in mon_record[mon_name].items()}
     history.append(summary)
     meta["shake"] = run
     meta["history"] = history
@@ -533,16 +547,31 @@ def _check_shake_options(options):
 def scrm(
     sizes,
     volume_fraction=0.6,
-    seed=None,
     *,
+    seed=None,
     growth_steps=10,
     start_fraction=None,
     schedule=None,
     stage_shakes=1,
     global_shakes=60,
     growth_rate=None,
+    max_pressure=None,
+    pressure_window=None,
+    fast_growth=None,
+    fast_growth_until=None,
+    pack_tuning=None,
+    shake_radius=None,
+    max_trials=None,
+    method=None,
+    order=None,
+    adaptive=None,
+    adapt_shakes=None,
+    adapt_factor=None,
+    target_acceptance=None,
+    shake_tuning=None,
+    monitor=None,
+    monitor_every=None,
     progress=None,
-    **shake_options,
 ) -> Packing:
     """Shaking collective rearrangement model (SCRM, §3.2 of 000_2cedc098acbd866b.txt).
 
@@ -571,13 +600,18 @@ def scrm(
         Global shakes after each growth stage (default 1).
     global_shakes : int
         ``M``, global shakes at the target (default 60).
-    growth_rate : float, optional
-        Passed to :func:`polypack.pack`.
+    growth_rate, max_pressure, pressure_window, fast_growth, fast_growth_until : optional
+        Options of every growth stage, as for :func:`polypack.pack` (``None``: its default).
+    pack_tuning : PackTuning, optional
+        Speed knobs of the growth stages (``tuning`` of :func:`polypack.pack`).
+    shake_radius, max_trials, method, order, adaptive, adapt_shakes, adapt_factor, target_acceptance : optional
+        Options of every shaking stage, as for :func:`shake` (``None``: its default).
+    shake_tuning : ShakeTuning, optional
+        Speed knobs of the shaking stages (``tuning`` of :func:`shake`).
+    monitor, monitor_every : optional
+        Convergence monitor of the final ``M`` global shakes (see :func:`shake`).
     progress : bool, optional
         Progress bar over stages.
-    **shake_options
-        Passed to :func:`shake` (``method``, ``shake_radius``, ``max_trials``,
-        ``order``, ``adaptive``, ``skin``, ``monitor_every``, ...).
 
     Returns
     -------
@@ -620,9 +654,20 @@ def scrm(
             raise InvalidInputError(f"schedule={schedule!r}: fractions must increase")
         if abs(fractions[-1] - c) > 1e-12:
             raise InvalidInputError(f"schedule ends at {fractions[-1]!r}; it must end at volume_fraction={c!r}")
-    for key in ("global_shakes", "seed", "progress"):
-        if key in shake_options:
-            raise InvalidInputError(f"{key} is an scrm argument; do not pass it among the shake options")
+    given = dict(shake_radius=shake_radius, max_trials=max_trials, method=method, order=order, adaptive=adaptive,
+                 adapt_shakes=adapt_shakes, adapt_factor=adapt_factor, target_acceptance=target_acceptance)
+    shake_options = {k: v for k, v in given.items() if v is not None}
+    if shake_tuning is not None:
+        shake_options["tuning"] = shake_tuning
+    if monitor is not None:
+        shake_options["monitor"] = monitor
+    if monitor_every is not None:
+        shake_options["monitor_every"] = monitor_every
+    grow = dict(max_pressure=max_pressure, pressure_window=pressure_window, fast_growth=fast_growth,
+                fast_growth_until=fast_growth_until)
+    pack_options = {k: v for k, v in grow.items() if v is not None}
+    if pack_tuning is not None:
+        pack_options["tuning"] = pack_tuning
     _check_shake_options(shake_options)
     ss = as_seed_sequence(seed)
     children = ss.spawn(2 * len(fractions) + 1)
@@ -639,7 +684,8 @@ def scrm(
                 where = f"in growth stage {s_i + 1} of {len(fractions)} (to {frac:.6g})"
                 _interrupt.check(f"scrm interrupted {where}", partial=None if s_i == 0 else pk)
                 t0 = time.perf_counter()
-                pk = pack(pk, volume_fraction=frac, seed=children[2 * s_i], growth_rate=growth_rate, progress=False)
+                pk = pack(pk, volume_fraction=frac, seed=children[2 * s_i], growth_rate=growth_rate,
+                          progress=False, **pack_options)
                 t1 = time.perf_counter()
                 reached = pk.volume_fraction
                 status = pk.meta.get("status")
@@ -688,7 +734,7 @@ def scrm(
         "stages": stages,
         "seed": seed_record(ss),
         "shake_options": {k: (v if isinstance(v, (int, float, str, bool, type(None))) else repr(v))
-                          for k, v in shake_options.items()},
+                          for k, v in shake_options.items() if k not in ("monitor", "tuning", "monitor_every")},
         "wall_time": time.perf_counter() - wall0,
     }
     pk.meta = meta

@@ -3,7 +3,7 @@
 Per bond the relative displacement of the contact point is ``Δ = B q`` with
 ``q = (u_i, θ_i, u_j, θ_j)`` and ``B = [-I, l_i [n]×, I, l_j [n]×]``, the lever arms being the
 DEM's ``l_i = (d + r_i - r_j) / 2`` and ``l_j = d - l_i``; the bond energy is
-``Δᵀ K_c Δ / 2`` with ``K_c = kn n nᵀ + ks (I - n nᵀ)`` (Eqs. (1) and (2) of
+``Δᵀ K_c Δ / 2`` with ``K_c = kn n nᵀ + ks (I - n nᵀ)`` (Eq. (1) of 003_873b69fc71c74cf6.txt and Eq. (2) of
 003_873b69fc71c74cf6.txt linearised).  The global matrix ``K = Σ Bᵀ K_c B`` gives
 
 * the highest angular frequency ``ω_max`` of ``M⁻¹ K`` and thus the critical time step

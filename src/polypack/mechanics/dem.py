@@ -1,9 +1,10 @@
 """Bonded discrete-element dynamics and the oscillatory shear test of 003_873b69fc71c74cf6.txt.
 
 The seed measures the plateau storage modulus ``G′_p`` of bonded sphere packs with
-PFC3D (§2.1, §2.4 of 003_873b69fc71c74cf6.txt): linear contacts, Eq. (1), incremental
-shear, Eq. (2), contact bonds that carry tension, local non-viscous damping, Eqs. (3)
-and (4), a sample sheared sinusoidally at 1 Hz with an amplitude ramped over ten
+PFC3D (§2.1, §2.4 of 003_873b69fc71c74cf6.txt): linear contacts, Eq. (1) of
+003_873b69fc71c74cf6.txt, incremental shear, Eq. (2) of 003_873b69fc71c74cf6.txt, contact
+bonds that carry tension, local non-viscous damping, Eq. (3) of 003_873b69fc71c74cf6.txt
+and Eq. (4) of 003_873b69fc71c74cf6.txt, a sample sheared sinusoidally at 1 Hz with an amplitude ramped over ten
 cycles to 0.1 % of the box, and ``G′ = |G*| cos δ`` averaged over six shear directions.
 :func:`oscillatory_shear` does this on a bonded network (the ``BondNetwork`` contract of
 :mod:`polypack.mechanics.network`) with the numba engine of
@@ -783,7 +784,7 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
     fitted by least squares, ``σ = G′ γ + (G″/ω) γ̇ + c0 + c1 t``, over the whole cycles
     after the first ``discard_cycles``; ``|G*| = sqrt(G′² + G″²)`` and the phase angle
     ``δ = atan2(G″, G′)`` (the seed's ``G′ = |G*| cos δ``).  The contact law is
-    Eqs. (1)-(2) of 003_873b69fc71c74cf6.txt with PFC contact bonds and the damping of
+    Eq. (1) of 003_873b69fc71c74cf6.txt and Eq. (2) of 003_873b69fc71c74cf6.txt with PFC contact bonds and the damping of
     Eq. (3) of 003_873b69fc71c74cf6.txt.
 
     Parameters

@@ -1,8 +1,8 @@
 """Particle-size distributions: grading curves, size classes, representativity, Hazen descriptors.
 
 Implements 001_ad5bae0acea940c4.txt (models of particle size distribution: inverse
-sampling Eqs. (1)-(4), classes Eqs. (6)-(11), cumulative beta model Eqs. (12)-(17), Hazen
-coefficients Eqs. (18)-(20), regression coefficient Eq. (21), accessible domain Fig. 8)
+sampling Eq. (1) of 001_ad5bae0acea940c4.txt to Eq. (4) of 001_ad5bae0acea940c4.txt, classes Eq. (6) of 001_ad5bae0acea940c4.txt to Eq. (11) of 001_ad5bae0acea940c4.txt, cumulative beta model Eq. (12) of 001_ad5bae0acea940c4.txt to Eq. (17) of 001_ad5bae0acea940c4.txt, Hazen
+coefficients Eq. (18) of 001_ad5bae0acea940c4.txt to Eq. (20) of 001_ad5bae0acea940c4.txt, regression coefficient Eq. (21) of 001_ad5bae0acea940c4.txt, accessible domain Fig. 8)
 and the bimodal description (size ratio λ, volume ratio ξ) of 000_2cedc098acbd866b.txt.
 
 Conventions: models are written in particle **diameters** ``d`` (as seed 001);
@@ -12,29 +12,43 @@ Conventions: models are written in particle **diameters** ``d`` (as seed 001);
 index for mixtures (:class:`Bimodal`: 0 = large/coarse, 1 = small, i.e. seed 000's modes 1, 2).
 """
 
-from .classes import ClassCounts, class_bounds, class_counts, class_volume_fractions, discretize
-from .descriptors import describe, hazen, moment, polydispersity, regression_coefficient, skewness
-from .domain import AccessibleDomain, accessible_domain
-from .models import (
-    Bimodal,
-    CumulativeBeta,
-    LogNormal,
-    Mixture,
-    Monodisperse,
-    Normal,
-    SieveTable,
-    SizeDistribution,
-    UniformSize,
-    UniformVolume,
-    number_to_volume_fractions,
-    ratio_from_span,
-    span_from_ratio,
-    uv_cdf,
-    uv_ppf,
-    volume_to_number_fractions,
-)
-from .plots import plot_class_histogram, plot_grading, plot_hazen_vs_span
-from .sizeset import SizeSet
+from importlib import import_module as _import_module
+
+_LAZY = {
+    "ClassCounts": "classes",
+    "class_bounds": "classes",
+    "class_counts": "classes",
+    "class_volume_fractions": "classes",
+    "discretize": "classes",
+    "describe": "descriptors",
+    "hazen": "descriptors",
+    "moment": "descriptors",
+    "polydispersity": "descriptors",
+    "regression_coefficient": "descriptors",
+    "skewness": "descriptors",
+    "AccessibleDomain": "domain",
+    "accessible_domain": "domain",
+    "Bimodal": "models",
+    "CumulativeBeta": "models",
+    "LogNormal": "models",
+    "Mixture": "models",
+    "Monodisperse": "models",
+    "Normal": "models",
+    "SieveTable": "models",
+    "SizeDistribution": "models",
+    "UniformSize": "models",
+    "UniformVolume": "models",
+    "number_to_volume_fractions": "models",
+    "ratio_from_span": "models",
+    "span_from_ratio": "models",
+    "uv_cdf": "models",
+    "uv_ppf": "models",
+    "volume_to_number_fractions": "models",
+    "plot_class_histogram": "plots",
+    "plot_grading": "plots",
+    "plot_hazen_vs_span": "plots",
+    "SizeSet": "sizeset",
+}
 
 __all__ = [
     "SizeDistribution", "CumulativeBeta", "UniformVolume", "UniformSize", "LogNormal", "Normal",
@@ -44,3 +58,14 @@ __all__ = [
     "hazen", "regression_coefficient", "moment", "polydispersity", "skewness", "describe",
     "accessible_domain", "AccessibleDomain", "plot_grading", "plot_class_histogram", "plot_hazen_vs_span",
 ]
+
+
+def __getattr__(name):
+    """Import the public names on first use (the package imports scipy; the registry does not need it)."""
+    if name in _LAZY:
+        return getattr(_import_module(f"{__name__}.{_LAZY[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

@@ -1,12 +1,12 @@
 """Size classes and a representative discrete set of sizes, §1.2 of 001_ad5bae0acea940c4.txt.
 
-Steps (Eqs. (6)-(11)): split ``[d_min, d_max]`` into ``N_c`` classes (regular, geometric
-Eq. (11) or isochoric); uncumulate the grading curve into class volume fractions
-``f_v^i`` (Eq. (6)); estimate the particles per unit volume of each class from its
-median diameter under the uniform-by-volume law (Eq. (7)); scale so the poorest class
-holds ``N_{p/c}^min`` particles (Eq. (8)) and the total reaches ``N_p^min`` (Eq. (9));
+Steps (Eq. (6) of 001_ad5bae0acea940c4.txt to Eq. (11) of 001_ad5bae0acea940c4.txt): split ``[d_min, d_max]`` into ``N_c`` classes (regular, geometric
+Eq. (11) of 001_ad5bae0acea940c4.txt or isochoric); uncumulate the grading curve into class volume fractions
+``f_v^i`` (Eq. (6) of 001_ad5bae0acea940c4.txt); estimate the particles per unit volume of each class from its
+median diameter under the uniform-by-volume law (Eq. (7) of 001_ad5bae0acea940c4.txt); scale so the poorest class
+holds ``N_{p/c}^min`` particles (Eq. (8) of 001_ad5bae0acea940c4.txt) and the total reaches ``N_p^min`` (Eq. (9) of 001_ad5bae0acea940c4.txt);
 refuse totals above the accessibility limit ``N_p^max`` (§2.3); finally draw the sizes of
-each class from the uniform-by-volume law of the class (Eq. (4)).
+each class from the uniform-by-volume law of the class (Eq. (4) of 001_ad5bae0acea940c4.txt).
 """
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._util import as_seed_sequence, seed_record
+from .. import _validate as _v
 from ..errors import InfeasibleError, InvalidInputError
 from .models import Mixture, SizeDistribution, uv_mean_volume, uv_ppf
 
@@ -26,9 +27,8 @@ COUNT_BASES = ("median", "mean")
 
 
 def _check_int(name, v, lo=1):
-    if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < lo:
-        raise InvalidInputError(f"{name}={v!r}: must be an integer >= {lo}")
-    return int(v)
+    """An integer ``>= lo`` (the shared check of :mod:`polypack._validate`)."""
+    return int(_v.check(name, v, _v.int_min(lo)))
 
 
 def class_bounds(model, n_classes=10, spacing="geometric"):
@@ -60,7 +60,7 @@ def class_bounds(model, n_classes=10, spacing="geometric"):
 
 
 def class_volume_fractions(model, bounds):
-    """Volume fraction of each class, ``f_v^i = h(d_max^i) - h(d_min^i)`` (Eq. (6) of 001)."""
+    """Volume fraction of each class, ``f_v^i = h(d_max^i) - h(d_min^i)`` (Eq. (6) of 001_ad5bae0acea940c4.txt)."""
     h = np.asarray(model.grading(np.asarray(bounds, float)), float)
     fv = np.diff(h)
     fv[fv < 0] = 0.0
@@ -69,11 +69,11 @@ def class_volume_fractions(model, bounds):
 
 @dataclass
 class ClassCounts:
-    """Result of the counting step (Eqs. (6)-(9) of 001_ad5bae0acea940c4.txt).
+    """Result of the counting step (Eq. (6) of 001_ad5bae0acea940c4.txt to Eq. (9) of 001_ad5bae0acea940c4.txt).
 
     ``lower``/``upper`` are the class bounds (equal for a monodisperse mode), ``fv`` the class
-    volume fractions, ``n_unit`` the non-integer counts ``n^i`` of Eq. (7), ``first`` the
-    counts ``N'_i`` of Eq. (8), ``counts`` the final ``N_i`` of Eq. (9); ``total`` = ``Σ N_i``.
+    volume fractions, ``n_unit`` the non-integer counts ``n^i`` of Eq. (7) of 001_ad5bae0acea940c4.txt, ``first`` the
+    counts ``N'_i`` of Eq. (8) of 001_ad5bae0acea940c4.txt, ``counts`` the final ``N_i`` of Eq. (9) of 001_ad5bae0acea940c4.txt; ``total`` = ``Σ N_i``.
     """
 
     lower: np.ndarray
@@ -97,13 +97,13 @@ class ClassCounts:
 
 def class_counts(model, n_classes=10, spacing="geometric", min_per_class=10, min_total=2000,
                  dim=None, count_basis="median", bounds=None):
-    """Particle counts per class from the representativity criteria, Eqs. (6)-(9) of 001.
+    """Particle counts per class from the representativity criteria, Eq. (6) of 001_ad5bae0acea940c4.txt to Eq. (9) of 001_ad5bae0acea940c4.txt.
 
-    Eq. (7): ``n^i = f_v^i / V(d_m^i)`` with ``d_m^i`` the median of the uniform-by-volume
+    Eq. (7) of 001_ad5bae0acea940c4.txt: ``n^i = f_v^i / V(d_m^i)`` with ``d_m^i`` the median of the uniform-by-volume
     law of the class (``count_basis="median"``, as in the seed) or, with
     ``count_basis="mean"``, the exact mean particle volume of that law (then the expected
-    class volume fractions of the set equal ``f_v^i``). Eq. (8): ``N'_i = E(N_{p/c}^min n^i
-    / min n)``. Eq. (9): if ``Σ N'_i < N_p^min``, ``N_i = E(N_p^min N'_i / N'_p)``, and the
+    class volume fractions of the set equal ``f_v^i``). Eq. (8) of 001_ad5bae0acea940c4.txt: ``N'_i = E(N_{p/c}^min n^i
+    / min n)``. Eq. (9) of 001_ad5bae0acea940c4.txt: if ``Σ N'_i < N_p^min``, ``N_i = E(N_p^min N'_i / N'_p)``, and the
     (fewer than ``N_c``) particles lost to the integer parts go to the classes with the
     largest remainders so that ``N_p = N_p^min`` exactly. Empty classes (``f_v^i = 0``)
     get no particles and are ignored by the criteria. No limit is applied here; see
@@ -179,11 +179,11 @@ def discretize(model, n_classes=10, spacing="geometric", min_per_class=10, min_t
     n_classes : int
         Number of size classes ``N_c``.
     spacing : {"geometric", "regular", "isochoric", "modes"}
-        Class boundaries (Eq. (11) for geometric). ``"modes"`` (automatic for discrete
+        Class boundaries (Eq. (11) of 001_ad5bae0acea940c4.txt for geometric). ``"modes"`` (automatic for discrete
         mixtures such as :class:`Bimodal`) uses the mixture's modes as classes and draws
         each mode from its own law.
     min_per_class, min_total : int
-        ``N_{p/c}^min`` and ``N_p^min`` of Eqs. (8)-(9).
+        ``N_{p/c}^min`` and ``N_p^min`` of Eq. (8) of 001_ad5bae0acea940c4.txt to Eq. (9) of 001_ad5bae0acea940c4.txt.
     max_total : int or None
         Accessibility limit ``N_p^max`` (§2.3); exceeding it raises
         :class:`~polypack.InfeasibleError` stating the number needed.
@@ -191,12 +191,12 @@ def discretize(model, n_classes=10, spacing="geometric", min_per_class=10, min_t
         Recorded in ``report["seed"]``; each class gets a spawned child seed.
     method : {"random", "quantiles"}
         Sizes in a class by inverse sampling of the uniform-by-volume law with random
-        ``y`` (Eq. (4)), or at the deterministic quantiles ``y_j = (j + 1/2)/N_i``.
+        ``y`` (Eq. (4) of 001_ad5bae0acea940c4.txt), or at the deterministic quantiles ``y_j = (j + 1/2)/N_i``.
     dim : {3, 2}, optional
-        Volume law used for the classes (default: the model's). ``dim=2`` uses Eq. (4)
+        Volume law used for the classes (default: the model's). ``dim=2`` uses Eq. (4) of 001_ad5bae0acea940c4.txt
         literally (``f ∝ d**-2``, disks); ``dim=3`` its sphere analogue ``f ∝ d**-3``.
     count_basis : {"median", "mean"}
-        Particle volume of a class in Eq. (7) (see :func:`class_counts`).
+        Particle volume of a class in Eq. (7) of 001_ad5bae0acea940c4.txt (see :func:`class_counts`).
     bounds : array, optional
         Explicit class boundaries (overrides ``n_classes`` and ``spacing``).
 

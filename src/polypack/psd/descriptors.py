@@ -35,7 +35,7 @@ def _as_set(obj):
 
 
 def hazen(obj) -> dict:
-    """Characteristic diameters and Hazen coefficients, Eqs. (18)-(20) of 001_ad5bae0acea940c4.txt.
+    """Characteristic diameters and Hazen coefficients, Eq. (18) of 001_ad5bae0acea940c4.txt to Eq. (20) of 001_ad5bae0acea940c4.txt.
 
     ``d_x`` is the diameter below which lies ``x %`` of the particle volume (the inverse
     grading curve); ``Cu = d60 / d10`` and ``Cc = d30**2 / (d10 d60)``. For a SizeSet (or
@@ -110,7 +110,7 @@ def skewness(obj) -> float:
 
 
 def describe(obj) -> dict:
-    """All descriptors as plain data: Hazen (Eqs. (18)-(20)), moments, polydispersity, skewness."""
+    """All descriptors as plain data: Hazen (Eq. (18) of 001_ad5bae0acea940c4.txt to Eq. (20) of 001_ad5bae0acea940c4.txt), moments, polydispersity, skewness."""
     out = dict(hazen(obj))
     if _kind(obj) == "model":
         out["d_min"], out["d_max"] = float(obj.d_min), float(obj.d_max)

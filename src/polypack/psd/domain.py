@@ -20,7 +20,7 @@ class AccessibleDomain:
 
     ``n_total[j, i]`` (float; ``inf`` beyond 1e18) is ``N_p`` for ``a = a_values[i]``,
     ``b = b_values[j]``; a shape is accessible when ``N_p <= max_total`` (``mask``).
-    ``cu`` and ``cc`` hold the Hazen coefficients of each shape (Eqs. (19)-(20)), so the
+    ``cu`` and ``cc`` hold the Hazen coefficients of each shape (Eq. (19) of 001_ad5bae0acea940c4.txt to Eq. (20) of 001_ad5bae0acea940c4.txt), so the
     accessible values of ``Cu`` (Fig. 8c) are ``cu[mask]``.
     """
 
@@ -59,13 +59,13 @@ def accessible_domain(span, a_values=None, b_values=None, n_classes=10, spacing=
                       min_total=2000, max_total=10**5, dim=3, count_basis="median") -> AccessibleDomain:
     """Map ``N_p`` over the CB shape parameters (a, b) for a fixed span, Fig. 8 of 001_ad5bae0acea940c4.txt.
 
-    For every (a, b) the class counts of Eqs. (6)-(9) are computed (no sampling), giving the
+    For every (a, b) the class counts of Eq. (6) of 001_ad5bae0acea940c4.txt to Eq. (9) of 001_ad5bae0acea940c4.txt are computed (no sampling), giving the
     total ``N_p`` the criteria need; the accessible domain is ``N_p <= N_p^max``.
 
     Parameters
     ----------
     span : float
-        CB span ``s`` in (0, 1), Eq. (17).
+        CB span ``s`` in (0, 1), Eq. (17) of 001_ad5bae0acea940c4.txt.
     a_values, b_values : array, optional
         Shape parameters to scan (default ``linspace(0.25, 10, 40)`` each).
     max_total : int or sequence of int

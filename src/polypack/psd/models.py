@@ -10,7 +10,7 @@ same population are always available and converted exactly into each other:
   (``number_pdf``) and ``number_quantile``.
 
 With a particle volume ``V(d) ∝ d**dim`` (``dim=3`` spheres, ``dim=2`` disks, the setting
-of the seed's Eqs. (2)-(4)), Eq. (5) gives ``dh = d**dim f(d) dd / <d**dim>``. A model
+of the seed's Eq. (2) of 001_ad5bae0acea940c4.txt to Eq. (4) of 001_ad5bae0acea940c4.txt), Eq. (5) of 001_ad5bae0acea940c4.txt gives ``dh = d**dim f(d) dd / <d**dim>``. A model
 defined in closed form on one side (its *basis*) gets the other side from the exact
 identity, written in the probability variable ``p`` of the basis so the integrand is
 bounded even where the density is singular::
@@ -101,14 +101,14 @@ def span_from_ratio(ratio):
 
 
 def _bounds_from(span, d_min, d_max, default_d_max=1.0):
-    """Resolve (d_min, d_max) from any two of span / d_min / d_max (Eq. (17) of 001)."""
+    """Resolve (d_min, d_max) from any two of span / d_min / d_max (Eq. (17) of 001_ad5bae0acea940c4.txt)."""
     if span is not None:
         try:
             s = float(span)
         except (TypeError, ValueError):
             raise InvalidInputError(f"span={span!r}: must be a number in (0, 1)") from None
         if not (0.0 < s < 1.0):
-            raise InvalidInputError(f"span={_show(span)}: must lie in the open interval (0, 1) (Eq. (17) of 001)")
+            raise InvalidInputError(f"span={_show(span)}: must lie in the open interval (0, 1) (Eq. (17) of 001_ad5bae0acea940c4.txt)")
         if d_min is not None and d_max is not None:
             raise InvalidInputError("give at most two of span, d_min, d_max")
         r = ratio_from_span(s)
@@ -275,7 +275,7 @@ class SizeDistribution:
         return self._pdf(d) if self.basis == "volume" else self._other_pdf(d)
 
     def quantile(self, p):
-        """Inverse grading curve ``d_p = h^{-1}(p)`` (``d_10 = quantile(0.1)``), Eqs. (19)-(20) of 001."""
+        """Inverse grading curve ``d_p = h^{-1}(p)`` (``d_10 = quantile(0.1)``), Eq. (19) of 001_ad5bae0acea940c4.txt to Eq. (20) of 001_ad5bae0acea940c4.txt."""
         p = _check_prob(p)
         return self._ppf_clipped(p) if self.basis == "volume" else self._other_ppf(p)
 
@@ -292,7 +292,7 @@ class SizeDistribution:
         return self._pdf(d) if self.basis == "number" else self._other_pdf(d)
 
     def number_quantile(self, p):
-        """Inverse partition function ``F^{-1}(p)`` (Eq. (1) of 001)."""
+        """Inverse partition function ``F^{-1}(p)`` (Eq. (1) of 001_ad5bae0acea940c4.txt)."""
         p = _check_prob(p)
         return self._ppf_clipped(p) if self.basis == "number" else self._other_ppf(p)
 
@@ -300,7 +300,7 @@ class SizeDistribution:
     def fraction_between(self, d_lo, d_hi, basis="volume"):
         """Fraction of the particles (by ``basis``) with ``d_lo < d <= d_hi``.
 
-        By volume this is ``h(d_hi) - h(d_lo)``, the class fraction of Eq. (6) of 001.
+        By volume this is ``h(d_hi) - h(d_lo)``, the class fraction of Eq. (6) of 001_ad5bae0acea940c4.txt.
         """
         basis = _check_basis(basis)
         cdf = self.grading if basis == "volume" else self.number_cdf
@@ -328,7 +328,7 @@ class SizeDistribution:
     def sample_diameters(self, n, seed=None, method="random"):
         """``n`` diameters drawn from the number distribution.
 
-        ``method="random"``: independent draws (inverse transform, Eq. (1) of 001, or exact
+        ``method="random"``: independent draws (inverse transform, Eq. (1) of 001_ad5bae0acea940c4.txt, or exact
         rejection on the converted law); ``"quantiles"``: the deterministic number
         quantiles ``F^{-1}((i + 1/2) / n)``, reproducible bit for bit without a seed.
         """
@@ -399,17 +399,17 @@ def _inside(d, lo, hi):
 
 # ------------------------------------------------------------------------------------------
 class CumulativeBeta(SizeDistribution):
-    """Cumulative beta (CB) model of the grading curve, Eqs. (12)-(17) of 001_ad5bae0acea940c4.txt.
+    """Cumulative beta (CB) model of the grading curve, Eq. (12) of 001_ad5bae0acea940c4.txt to Eq. (17) of 001_ad5bae0acea940c4.txt.
 
     ``h(d) = I_{d_r}(a, b)`` with the reduced diameter ``d_r = (d - d_min)/(d_max - d_min)``
-    (Eq. (15)) and the regularised incomplete beta function ``I`` (``scipy.special.betainc``).
+    (Eq. (15) of 001_ad5bae0acea940c4.txt) and the regularised incomplete beta function ``I`` (``scipy.special.betainc``).
 
     Parameters
     ----------
     a, b : float
         Shape parameters, both > 0 (``a = b = 1``: uniform by volume fraction).
     span : float, optional
-        ``s = (d_max - d_min)/(d_max + d_min)`` in (0, 1), Eq. (17). Give two of
+        ``s = (d_max - d_min)/(d_max + d_min)`` in (0, 1), Eq. (17) of 001_ad5bae0acea940c4.txt. Give two of
         ``span``, ``d_min``, ``d_max`` (``d_max`` defaults to 1 with ``span``).
     d_min, d_max : float, optional
         Diameter range.
@@ -482,12 +482,12 @@ class _UniformInBasis(SizeDistribution):
 
 
 class UniformVolume(_UniformInBasis):
-    """Distribution uniform by volume fraction, Eqs. (2)-(4) of 001_ad5bae0acea940c4.txt.
+    """Distribution uniform by volume fraction, Eq. (2) of 001_ad5bae0acea940c4.txt to Eq. (4) of 001_ad5bae0acea940c4.txt.
 
     Every size interval of equal width holds the same particle volume: ``h(d)`` is the
     straight line from ``(d_min, 0)`` to ``(d_max, 1)`` and ``f(d) ∝ d**(-dim)``. The
     partition function and its inverse are closed forms; for ``dim=2`` they are exactly
-    Eqs. (3) and (4) of the seed (whose Eq. (2) should read ``1/d**2`` for the stated
+    Eq. (3) of 001_ad5bae0acea940c4.txt and Eq. (4) of 001_ad5bae0acea940c4.txt (whose Eq. (2) of 001_ad5bae0acea940c4.txt should read ``1/d**2`` for the stated
     normalisation), for ``dim=3``::
 
         F(d) = (d_min**-2 - d**-2) / (d_min**-2 - d_max**-2)
@@ -514,7 +514,7 @@ class UniformVolume(_UniformInBasis):
 
 
 def uv_cdf(d, d_min, d_max, dim=3):
-    """Partition function of the law uniform by volume on ``[d_min, d_max]`` (Eq. (3) of 001 for dim=2).
+    """Partition function of the law uniform by volume on ``[d_min, d_max]`` (Eq. (3) of 001_ad5bae0acea940c4.txt for dim=2).
 
     ``f ∝ d**(-dim)`` gives ``F(d) = (1 - (d_min/d)**(dim-1)) / (1 - (d_min/d_max)**(dim-1))``.
     """
@@ -873,7 +873,7 @@ class Mixture(SizeDistribution):
         """Integer particle counts per mode for ``n`` particles in total.
 
         Every mode but the most numerous gets the integer part ``E(n x_k)`` of its exact
-        share (the rounding rule of Eqs. (8)-(9) of 001_ad5bae0acea940c4.txt); the most
+        share (the rounding rule of Eq. (8) of 001_ad5bae0acea940c4.txt to Eq. (9) of 001_ad5bae0acea940c4.txt); the most
         numerous mode takes the rest so the total is exactly ``n``. For seed 000's pack
         (``λ = 0.313``, ``ξ = 0.333``, N = 2000) this gives N⁽¹⁾ = 168 large spheres.
         """

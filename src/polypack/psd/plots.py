@@ -68,7 +68,7 @@ def plot_class_histogram(sizeset, ax=None):
     ax2.plot(k, vol / vol.sum(), "o-", color="C1", label="volume fraction (set)")
     target = sizeset.report.get("classes", {}).get("volume_fractions")
     if target is not None and len(target) == counts.size:
-        ax2.plot(k, target, "x", color="k", label="f_v (model, Eq. (6))")
+        ax2.plot(k, target, "x", color="k", label="f_v (model)")
         ax2.legend(loc="upper center", fontsize="small")
     ax2.set_ylabel("volume fraction")
     ax2.set_ylim(0, None)

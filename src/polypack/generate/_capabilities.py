@@ -1,0 +1,125 @@
+"""Registry declarations of the packing protocols (``[protocol] kind = ...``).
+
+``crm``   CRM growth (:func:`polypack.pack`, §3.1 of 000_2cedc098acbd866b.txt), then
+          ``global_shakes`` global shakes with :func:`polypack.shake` if M > 0.
+``scrm``  SCRM: CRM growth interleaved with shaking (:func:`polypack.scrm`, §3.2 of
+          000_2cedc098acbd866b.txt), then ``global_shakes`` global shakes.
+
+An option a protocol does not use is an error in a study (``protocol.max_seconds: not
+used with protocol.kind = "scrm"``), never silently dropped.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .. import _validate as v
+from ..registry import Outputs, option, register
+
+_SHAKE_KEYS = (("shake_radius", "shake_radius"), ("max_trials", "max_trials"), ("shake_method", "method"),
+               ("adaptive", "adaptive"))
+
+
+def _shake_fields():
+    return dict(
+        shake_radius=option(None, v.positive, "shake-window radius R_sh in units of the sphere radius", unit="a"),
+        max_trials=option(None, v.int_min(1), "trial moves per sphere and global shake N_sh"),
+        shake_method=option(None, v.choice("paper", "collision", "metropolis"), "shaking variant"),
+        adaptive=option(None, v.boolean, "adapt R_sh towards a target acceptance"),
+    )
+
+
+@dataclass(frozen=True)
+class CRMOptions:
+    volume_fraction: float = option(0.6, v.volume_fraction, "target volume fraction c in (0, 1), or \"jammed\"")
+    growth_rate: float = option(None, v.positive, "radius growth rate of the Lubachevsky–Stillinger CRM")
+    max_seconds: float = option(None, v.positive, "wall-clock budget of the growth, s")
+    global_shakes: int = option(0, v.int_min(0), "M global shakes of the finished pack (0: none)")
+    shake_radius: float = _shake_fields()["shake_radius"]
+    max_trials: int = _shake_fields()["max_trials"]
+    shake_method: str = _shake_fields()["shake_method"]
+    adaptive: bool = _shake_fields()["adaptive"]
+
+
+@dataclass(frozen=True)
+class SCRMOptions:
+    volume_fraction: float = option(0.6, v.volume_fraction, "target volume fraction c in (0, 1)")
+    growth_rate: float = option(None, v.positive, "radius growth rate of the CRM stages")
+    global_shakes: int = option(60, v.int_min(0), "M global shakes at the target")
+    shake_radius: float = _shake_fields()["shake_radius"]
+    max_trials: int = _shake_fields()["max_trials"]
+    shake_method: str = _shake_fields()["shake_method"]
+    adaptive: bool = _shake_fields()["adaptive"]
+    schedule: list = option(None, v.schedule, "increasing volume fractions of the growth stages (target appended)")
+    growth_steps: int = option(None, v.int_min(1), "number of growth stages from start_fraction (default 10)")
+    start_fraction: float = option(None, v.fraction_open, "first stage fraction (default 0.8 c)")
+    stage_shakes: int = option(None, v.int_min(0), "global shakes after each growth stage (default 1)")
+
+
+def shake_options(pr: dict) -> dict:
+    """Keyword arguments of :func:`polypack.shake` from a resolved protocol table."""
+    return {arg: pr[key] for key, arg in _SHAKE_KEYS if key in pr}
+
+
+def run_crm(sizes, pr: dict, seed, monitor=None):
+    """CRM growth then M global shakes (the seeds of both stages spawned from ``seed``).
+
+    ``monitor`` (a callable ``monitor(packing) -> dict``, see :func:`polypack.shake`) is
+    given by the runner: the contact-value monitor of :mod:`polypack.analysis`.
+    """
+    from .lubachevsky import pack
+    from .shake import shake
+
+    s_pack, s_shake = seed.spawn(2)
+    grow = {k: pr[k] for k in ("growth_rate", "max_seconds") if k in pr}
+    m = int(pr.get("global_shakes", 0))
+    pk = pack(sizes, pr["volume_fraction"], seed=s_pack, progress=False, **grow)
+    if m > 0:
+        pk = shake(pk, global_shakes=m, seed=s_shake, progress=False, monitor=monitor, **shake_options(pr))
+    return pk
+
+
+def run_scrm(sizes, pr: dict, seed, monitor=None):
+    """SCRM to the target, then M global shakes (``monitor`` as for :func:`run_crm`)."""
+    from .shake import scrm
+
+    s_pack, _ = seed.spawn(2)
+    kw = dict(global_shakes=int(pr.get("global_shakes", 0)), monitor=monitor, **shake_options(pr))
+    if "growth_rate" in pr:
+        kw["growth_rate"] = pr["growth_rate"]
+    for key in ("growth_steps", "start_fraction", "stage_shakes"):
+        if key in pr:
+            kw[key] = pr[key]
+    if "schedule" in pr:
+        sched = list(pr["schedule"])
+        if sched[-1] < pr["volume_fraction"]:
+            sched.append(pr["volume_fraction"])
+        kw["schedule"] = sched
+    return scrm(sizes, volume_fraction=pr["volume_fraction"], seed=s_pack, progress=False, **kw)
+
+
+def check_crm(pr: dict, path: str = "protocol") -> None:
+    """Cross-key checks of a resolved CRM table."""
+
+
+def check_scrm(pr: dict, path: str = "protocol") -> None:
+    """Cross-key checks of a resolved SCRM table."""
+    from ..errors import InvalidInputError
+
+    if pr["volume_fraction"] == "jammed":
+        raise InvalidInputError(f'{path}.volume_fraction = "jammed": SCRM needs a number in (0, 1)')
+    if "schedule" in pr and pr["schedule"][-1] > pr["volume_fraction"]:
+        raise InvalidInputError(
+            f"{path}.schedule = {pr['schedule']!r}: must not exceed {path}.volume_fraction = "
+            f"{pr['volume_fraction']!r}"
+        )
+
+
+register("protocol", "crm", CRMOptions, run_crm, Outputs(),
+         doc="CRM (Lubachevsky–Stillinger growth), §3.1 of 000_2cedc098acbd866b.txt; then M global shakes",
+         requires=("polypack.generate:pack",), check=check_crm,
+         kernels=("polypack._kernels.cells", "polypack._kernels.edmd", "polypack._kernels.shake"))
+register("protocol", "scrm", SCRMOptions, run_scrm, Outputs(),
+         doc="SCRM: CRM growth interleaved with shaking, §3.2 of 000_2cedc098acbd866b.txt",
+         requires=("polypack.generate:pack", "polypack.generate:scrm", "polypack.generate:shake"),
+         check=check_scrm, kernels=("polypack._kernels.cells", "polypack._kernels.edmd", "polypack._kernels.shake"))
