@@ -8,7 +8,7 @@ from scipy.special import eval_legendre
 import polypack as pp
 from polypack._kernels.threepoint import _basis, ball_inverse_power
 from polypack.analysis.threepoint import ThreePointParameters, ball_quadrature, harmonic_weights
-from polypack.errors import InvalidInputError
+from polypack.errors import InvalidInputError, NotComputedError
 
 
 def _hard_spheres(n, phi, seed, shakes=10, radii=1.0):
@@ -196,6 +196,6 @@ def test_accumulation_and_errors():
         ThreePointParameters(cutoff=100.0).compute(pks[0])
     with pytest.raises(InvalidInputError, match="Packing"):
         ThreePointParameters().compute(np.zeros((3, 3)))
-    with pytest.raises(InvalidInputError, match="no results"):
+    with pytest.raises(NotComputedError, match="not computed yet"):
         ThreePointParameters().zeta2
     assert pp.analysis.ThreePointParameters is ThreePointParameters

@@ -25,6 +25,7 @@ FACTORIES = {
     "Contacts": lambda: pp.analysis.Contacts(tolerance=0.5),
     "PoreSizes": lambda: pp.analysis.PoreSizes(n_points=500, seed=1),
     "DepositStatistics": lambda: pp.analysis.deposits.DepositStatistics(margin=1.0),
+    "ThreePointParameters": lambda: pp.analysis.ThreePointParameters(radial_nodes=3, angular_nodes=4),
 }
 
 

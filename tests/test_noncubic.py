@@ -165,9 +165,9 @@ def test_shake_never_overlaps_at_any_sweep(packed, method, neighbours):
         np.testing.assert_array_equal(cur.box, pk.box)
         gaps.append(orc.min_gap(cur.positions, cur.radii, cur.box))
 
-    kw = dict(skin=0.3) if neighbours == "verlet" else {}
-    out = pp.shake(pk, global_shakes=8, shake_radius=0.3, method=method, seed=4, neighbours=neighbours,
-                   monitor_every=0, callback=check, max_trials=1 if method != "paper" else 20, **kw)
+    tuning = pp.generate.ShakeTuning(neighbours=neighbours, skin=0.3 if neighbours == "verlet" else None)
+    out = pp.shake(pk, global_shakes=8, shake_radius=0.3, method=method, seed=4, tuning=tuning,
+                   monitor_every=0, callback=check, max_trials=1 if method != "paper" else 20)
     assert len(gaps) == 8
     assert min(gaps) >= 0.0, gaps
     assert out.meta["shake"]["final_neighbour_structure"] == neighbours

@@ -1,8 +1,8 @@
 """Exact linear elastic response of a periodic bonded network (static limit of seed 003's shear test).
 
 The network of :class:`~polypack.mechanics.BondNetwork` is a set of linear springs
-(normal stiffness ``k_n``, shear stiffness ``k_s``: Eq. (1) and Eq. (2) of
-003_873b69fc71c74cf6.txt) acting at the PFC contact points. A homogeneous strain
+(normal stiffness ``k_n``, Eq. (1) of 003_873b69fc71c74cf6.txt; shear stiffness
+``k_s``, Eq. (2) of 003_873b69fc71c74cf6.txt) acting at the PFC contact points. A homogeneous strain
 ``eps`` moves every branch vector affinely, ``b -> b + eps b``; the particles then relax
 (translations and, by default, rotations) to the minimum of the harmonic energy. The
 relaxed energy per volume is ``eps^T C eps / 2``; ``C`` is what the slow oscillatory
