@@ -10,7 +10,7 @@ import pytest
 import polypack as pp
 from polypack import FormatError, InvalidInputError, Packing
 
-READABLE = {"gsd": ".gsd", "xyz": ".xyz", "lammps": ".data", "csv": ".csv"}
+READABLE = {"gsd": ".gsd", "xyz": ".xyz", "lammps": ".data", "csv": ".csv", "vtp": ".vtp"}
 ALL_EXT = [".gsd", ".xyz", ".extxyz", ".data", ".lmp", ".vtp", ".csv"]
 
 META = {
@@ -74,7 +74,7 @@ def test_edge_positions_defeat_naive_centring():
     assert np.any(naive != x)
 
 
-@pytest.mark.parametrize("ext", [".gsd", ".extxyz", ".lmp", ".csv"])
+@pytest.mark.parametrize("ext", [".gsd", ".extxyz", ".lmp", ".csv", ".vtp"])
 def test_round_trip_other_extensions_and_edge_cases(tmp_path, ext):
     rng = np.random.default_rng(7)
     cases = [
@@ -256,8 +256,22 @@ def test_vtp_is_valid_polydata(tmp_path):
     offs = array("PolyData/Piece/Verts", "offsets")[1]
     assert np.array_equal(conn, np.arange(pk.n)) and np.array_equal(offs, np.arange(1, pk.n + 1))
     assert np.array_equal(array("PolyData/FieldData", "box")[1], pk.box)
-    with pytest.raises(InvalidInputError, match="write-only"):
-        pp.io.read(path)
+
+
+def test_vtp_layout_lets_ovito_detect_the_format(tmp_path):
+    """OVITO's VTP particle reader detects a file only if the XML declaration is followed
+    directly by <VTKFile type="PolyData"> (no comment, the provenance used to sit there) and
+    the first element below <PolyData> is the <Piece> (field data must come after it)."""
+    pk = random_pack(np.random.default_rng(17), n=12)
+    path = tmp_path / "p.vtp"
+    pp.io.write(path, pk)
+    events = [(ev, el.tag) for ev, el in ET.iterparse(path, events=("start", "comment"))][:4]
+    assert events[:3] == [("start", "VTKFile"), ("start", "PolyData"), ("start", "Piece")]
+    head = path.read_text().split("\n", 2)
+    assert head[0] == '<?xml version="1.0"?>' and head[1].startswith('<VTKFile type="PolyData"')
+    assert "<!--" not in path.read_text()
+    piece = ET.parse(path).getroot().find("PolyData/Piece")
+    assert piece.get("NumberOfPoints") == piece.get("NumberOfVerts") and piece.get("NumberOfLines") == "0"
 
 
 # -------------------------------------------------------------- rejections
@@ -400,9 +414,9 @@ def test_written_files_get_normal_permissions(tmp_path):
     assert kept.stat().st_mode & 0o777 == 0o640
 
 
-def test_vtp_reads_in_vtk_when_available(tmp_path):
-    """ParaView's own reader (vtkXMLPolyDataReader); VTK is not a dependency, so optional."""
-    vtk = pytest.importorskip("vtk")
+def test_vtp_reads_in_vtk(tmp_path):
+    """ParaView's own reader (vtkXMLPolyDataReader; ``vtk`` is in the test extra, so this runs in CI)."""
+    import vtk
     from vtk.util.numpy_support import vtk_to_numpy
 
     pk = random_pack(np.random.default_rng(16), n=40)
@@ -418,3 +432,21 @@ def test_vtp_reads_in_vtk_when_available(tmp_path):
     assert np.array_equal(vtk_to_numpy(data.GetPointData().GetArray("radius")), pk.radii)
     assert np.array_equal(vtk_to_numpy(data.GetPointData().GetArray("species")), pk.species)
     assert np.array_equal(vtk_to_numpy(data.GetFieldData().GetArray("box")).ravel(), pk.box)
+    prov = data.GetFieldData().GetAbstractArray("provenance")
+    assert prov.GetNumberOfValues() == 1
+    assert json.loads(prov.GetValue(0)) == json.loads(pp.io._common.provenance_json(pk))
+    assert list(vtk_to_numpy(data.GetFieldData().GetArray("periodic")).ravel()) == [1, 1, 1]
+
+
+def test_vtp_2d_and_walls_round_trip(tmp_path):
+    rng = np.random.default_rng(18)
+    disks = Packing(rng.random((30, 2)) * [6.0, 5.0], rng.uniform(0.05, 0.2, 30), [6.0, 5.0],
+                    species=rng.integers(0, 2, 30), meta={"d": 2})
+    walls = Packing(rng.uniform(0.5, 4.5, (20, 3)), np.full(20, 0.3), [5.0, 5.0, 5.0], periodic=(True, True, False))
+    for k, pk in enumerate((disks, walls)):
+        path = tmp_path / f"p{k}.vtp"
+        pp.io.write(path, pk)
+        back = pp.io.read(path)
+        assert_bitwise_equal(pk, back)
+        assert back.periodic == pk.periodic and back.dim == pk.dim
+

@@ -9,7 +9,7 @@ from typing import Optional
 import typer
 
 MAX_PAIRS = 5  # overlapping pairs named in the text output
-_FORMATS_HELP = "gsd, xyz (.xyz/.extxyz), lammps (.data/.lmp), csv; convert also writes vtp"
+_FORMATS_HELP = "gsd, xyz (.xyz/.extxyz), lammps (.data/.lmp), vtp, csv"
 
 
 def _finite(x):
@@ -150,7 +150,7 @@ def register(app: typer.Typer) -> None:
         to_fmt: Optional[str] = typer.Option(None, "--to", help="Output format when the extension is not standard."),
         frame: Optional[int] = typer.Option(None, "--frame", help="Frame of a multi-frame GSD/XYZ file (default: last)."),
     ):
-        """Convert a packing between formats (gsd, xyz, lammps, csv; vtp for ParaView, write only).
+        """Convert a packing between formats (gsd, xyz, lammps, vtp, csv).
 
         Positions, radii, box, species and provenance are carried over exactly; the output is written atomically, so an existing TARGET is replaced only on success.
         """  # noqa: E501

@@ -6,7 +6,7 @@ format     extensions                  read back       opened by
 ``gsd``    ``.gsd``                    yes (exact)     HOOMD-blue, OVITO, freud (primary)
 ``xyz``    ``.xyz``, ``.extxyz``       yes (exact)     OVITO, ASE
 ``lammps`` ``.data``, ``.lmp``         yes (exact)     LAMMPS ``read_data`` (atom_style sphere)
-``vtp``    ``.vtp``                    no              ParaView
+``vtp``    ``.vtp``                    yes (exact)     ParaView, OVITO, VTK
 ``csv``    ``.csv``                    yes (exact)     numpy, pandas, spreadsheets
 =========  ==========================  ==============  =====================================
 
@@ -39,7 +39,7 @@ FORMATS: dict[str, tuple[str, tuple[str, ...], bool]] = {
     "gsd": ("_gsd", (".gsd",), True),
     "xyz": ("_xyz", (".xyz", ".extxyz"), True),
     "lammps": ("_lammps", (".data", ".lmp"), True),
-    "vtp": ("_vtp", (".vtp",), False),
+    "vtp": ("_vtp", (".vtp",), True),
     "csv": ("_csv", (".csv",), True),
 }
 
@@ -121,8 +121,8 @@ def read(path, format: str | None = None, **options) -> Packing:
     Parameters
     ----------
     path : str or os.PathLike
-        A ``.gsd``, ``.xyz``/``.extxyz``, ``.data``/``.lmp`` or ``.csv`` file.
-    format : {"gsd", "xyz", "lammps", "csv"}, optional
+        A ``.gsd``, ``.xyz``/``.extxyz``, ``.data``/``.lmp``, ``.vtp`` or ``.csv`` file.
+    format : {"gsd", "xyz", "lammps", "vtp", "csv"}, optional
         Overrides the extension.
     **options
         Passed to the format reader; GSD and XYZ accept ``frame`` (default -1, the
@@ -139,6 +139,6 @@ def read(path, format: str | None = None, **options) -> Packing:
     FormatError
         The file is missing, empty, truncated, of another format or holds invalid values.
     InvalidInputError
-        The extension or ``format`` is unknown or write-only (``.vtp``).
+        The extension or ``format`` is unknown.
     """
     return read_with_info(path, format, **options)[0]
