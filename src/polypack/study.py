@@ -81,6 +81,9 @@ prints it with every type, bound, default and doc). The built-ins:
     ``tolerance`` (>= 0), ``min_contacts`` (>= 0).
 ``[analysis.pores]``
     ``n_points`` (>= 100), ``n_grid`` (>= 10).
+``[analysis.elastic]``
+    exact elastic tensor of the bonded network (``docs/mechanics.md``): ``bonds``, ``epsilon``,
+    ``normal_stiffness``, ``shear_stiffness``, ``rotations``, ``radius``, ``solver``.
 ``[output]``
     ``formats`` (list from ``"gsd"``, ``"xyz"``, ``"data"``, ``"vtp"``, ``"csv"``; GSD is always
     written), ``plots`` (bool), ``plot_format`` (``"png"`` | ``"pdf"`` | ``"svg"``).
@@ -428,7 +431,7 @@ def load_study(path_or_data) -> Study:
 def code_digest() -> str:
     """sha256 (16 hex digits) of the sources that determine a realization's results.
 
-    The kernels, generators, size distributions, analyses, the data model and the
+    The kernels, generators, size distributions, analyses, mechanics, the data model and the
     realization stages: a resume trusts a saved realization only if it was computed by
     exactly this code (and the same polypack version), so a changed generator never
     silently reuses old packs.
@@ -439,7 +442,7 @@ def code_digest() -> str:
     root = Path(__file__).resolve().parent
     h = hashlib.sha256()
     files = []
-    for sub in ("_kernels", "generate", "psd", "analysis"):
+    for sub in ("_kernels", "generate", "psd", "analysis", "mechanics"):
         d = root / sub
         if d.is_dir():
             files += sorted(p for p in d.rglob("*.py"))

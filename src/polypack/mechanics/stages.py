@@ -1,0 +1,105 @@
+"""Study stages of the mechanics (``[analysis.elastic]``, ``[analysis.shear]`` of ``polypack run``).
+
+Each function adapts one resolved ``[analysis.X]`` table (declared in
+:mod:`polypack.mechanics._capabilities`) to the public API and returns plain data for
+the realization record; the summary scalars are the numbers the declaration names.
+
+Bonds. Both stages bond the realized pack the same way (option ``bonds``):
+
+``"auto"`` (default)
+    the bonds the protocol made, if the pack carries them (``packing.meta["bonds"]``,
+    written by :func:`polypack.brownian`: bonds formed by Brownian dynamics, read with
+    :func:`polypack.generate.brownian.brownian_bonds` into
+    :meth:`~polypack.mechanics.BondNetwork.from_pairs`); otherwise every pair closer
+    than ``(1 + epsilon)(r_i + r_j)``
+    (:meth:`~polypack.mechanics.BondNetwork.from_packing`, the bonding rule of §2.4 of
+    003_873b69fc71c74cf6.txt).
+``"distance"``
+    always the ``epsilon`` rule.
+``"protocol"``
+    the protocol's bonds; an error if the pack has none.
+
+The record says which rule was used (``bonds``).  Networks are stress-free (rest
+length = the current length of each bond), the reference state the exact tensor
+linearises about.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import InfeasibleError, InvalidInputError
+
+__all__ = ["network_of", "run_elastic", "BOND_RULES"]
+
+BOND_RULES = ("auto", "distance", "protocol")
+
+
+def _stiffnesses(opts):
+    kn = float(opts.get("normal_stiffness", 100.0))
+    ks = opts.get("shear_stiffness")
+    ks = kn / 10.0 if ks is None else float(ks)  # seed 003 Table 1: kn / ks = 10
+    return kn, ks
+
+
+def network_of(packing, opts, path="analysis.elastic", **strengths):
+    """The stress-free :class:`~polypack.mechanics.BondNetwork` of a realized pack; ``(network, rule)``.
+
+    ``opts`` holds ``bonds`` (:data:`BOND_RULES`), ``epsilon``, ``normal_stiffness`` and
+    ``shear_stiffness`` (default ``normal_stiffness / 10``); ``strengths`` go to the
+    network (``normal_strength``, ``shear_strength``).
+    """
+    from .network import BondNetwork
+
+    rule = opts.get("bonds", "auto")
+    kn, ks = _stiffnesses(opts)
+    kw = dict(normal_stiffness=kn, shear_stiffness=ks, **strengths)
+    has = isinstance(packing.meta.get("bonds"), dict)
+    if rule == "protocol" and not has:
+        raise InvalidInputError(
+            f'{path}.bonds = "protocol": this pack carries no bonds (packing.meta["bonds"], made by '
+            f'protocol.kind = "brownian"); use bonds = "distance" or "auto"'
+        )
+    if rule != "distance" and has:
+        from ..generate.brownian import brownian_bonds
+
+        i, j, shift = brownian_bonds(packing)
+        return BondNetwork.from_pairs(packing, i, j, shift, **kw), "protocol"
+    return BondNetwork.from_packing(packing, epsilon=opts.get("epsilon", 0.01), **kw), "distance"
+
+
+def _prefixed(path, fn, *args, **kw):
+    """Run ``fn``; its one-line InvalidInputError/InfeasibleError gets the stage's key path."""
+    try:
+        return fn(*args, **kw)
+    except (InvalidInputError, InfeasibleError) as exc:
+        msg = str(exc)
+        if msg.startswith(path):
+            raise
+        raise type(exc)(f"{path}: {msg}") from None
+
+
+def run_elastic(packing, opts, seed):
+    """``[analysis.elastic]``: the exact elastic tensor of the realized pack's bonded network.
+
+    :func:`polypack.mechanics.elastic_tensor` of the network of :func:`network_of`
+    (the static limit of the oscillatory test of §2.4 of 003_873b69fc71c74cf6.txt, for
+    the contact law of Eq. (1) of 003_873b69fc71c74cf6.txt).  Returns
+    :meth:`ElasticTensor.to_dict` plus the bond rule, ``epsilon`` and the stiffnesses;
+    the summary scalars are listed in :mod:`polypack.mechanics._capabilities`.
+    ``seed`` is unused (the tensor is deterministic).
+    """
+    from .elastic import elastic_tensor
+
+    path = "analysis.elastic"
+    net, rule = _prefixed(path, network_of, packing, opts, path)
+    radius = opts.get("radius", 0.25e-6)
+    et = _prefixed(path, elastic_tensor, net, rotations=opts.get("rotations", True),
+                   radius=radius if radius > 0 else None, solver=opts.get("solver", "auto"))
+    kn, ks = _stiffnesses(opts)
+    out = {"estimator": "ElasticTensor", "bonds": rule,
+           "epsilon": float(opts.get("epsilon", 0.01)) if rule == "distance" else None,
+           "normal_stiffness": kn, "shear_stiffness": ks,
+           "radius_m": radius if radius > 0 else None}
+    out.update(et.to_dict())
+    return out

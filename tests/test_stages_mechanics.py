@@ -1,0 +1,141 @@
+"""Study stages of the mechanics through the registry: ``[analysis.elastic]`` (and later ones).
+
+Each stage is checked (1) end to end in a tiny study (``polypack run``: summary column,
+ensemble mean, record) against the direct API call on the same pack read back from the
+realization's GSD file (an independent path through the public API), (2) on a lattice
+against its closed form, and (3) on bad input (one-line errors naming the key).
+"""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+from _lattices import fcc
+
+import polypack as pp
+from polypack.errors import InfeasibleError, InvalidInputError
+from polypack.mechanics import BondNetwork, elastic_tensor
+from polypack.study import validate
+
+R0 = 0.25e-6  # seed 003 Table 1 radius: the stage's default length rescaling
+
+
+def _study(analysis, **protocol):
+    return {
+        "study": {"name": "mech", "seed": 5, "realizations": 2},
+        "psd": {"model": "monodisperse", "d": 1.0, "n": 60},
+        "protocol": {"kind": "crm", "volume_fraction": 0.6, **protocol},
+        "analysis": analysis,
+        "output": {"plots": False},
+    }
+
+
+def _rows(out):
+    with open(out / "summary.csv", newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+# --------------------------------------------------------------------------- elastic
+@pytest.fixture(scope="module")
+def elastic_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("elastic") / "run"
+    pp.ensemble.run_study(_study({"elastic": {"epsilon": 0.05, "normal_stiffness": 50.0}}), out, progress=False)
+    return out
+
+
+def test_elastic_stage_matches_the_direct_api_on_each_realization(elastic_run):
+    rows = _rows(elastic_run)
+    assert len(rows) == 2
+    gs = []
+    for k, row in enumerate(rows):
+        pk = pp.io.read(elastic_run / "realizations" / f"r{k:04d}.gsd")
+        # the direct path: network and tensor from the public API with the same options
+        net = BondNetwork.from_packing(pk, epsilon=0.05, normal_stiffness=50.0, shear_stiffness=5.0)
+        et = elastic_tensor(net, radius=R0)
+        # GSD stores double precision, so the numbers agree to round-off of the solve
+        # (1e-8 would catch any option not passed through: ks, rotations, radius, epsilon)
+        for col, want in (("shear_modulus", et.shear_modulus), ("bulk_modulus", et.bulk_modulus),
+                          ("affine_shear_modulus", et.affine_shear_modulus),
+                          ("relaxation_ratio", et.relaxation_ratio), ("coordination", net.coordination),
+                          ("shear_modulus_MPa", et.shear_modulus * 1e-6),
+                          ("shear_moduli.2", et.shear_moduli[2])):
+            assert float(row[f"elastic.{col}"]) == pytest.approx(want, rel=1e-8), col
+        assert int(row["elastic.n_rattlers"]) == int(net.rattlers.sum())
+        assert int(row["elastic.n_bonds"]) == net.n_bonds
+        rec = json.loads((elastic_run / "realizations" / f"r{k:04d}.json").read_text())
+        el = rec["analysis"]["elastic"]
+        assert el["bonds"] == "distance" and el["units"] == "Pa"
+        np.testing.assert_allclose(el["stiffness"], et.stiffness, rtol=1e-8, atol=1e-8 * abs(et.stiffness).max())
+        gs.append(et.shear_modulus)
+    ens = json.loads((elastic_run / "ensemble" / "scalars.json").read_text())
+    g = ens["elastic.shear_modulus"]
+    assert g["n"] == 2 and g["mean"] == pytest.approx(np.mean(gs), rel=1e-8)
+    assert g["se"] == pytest.approx(np.std(gs, ddof=1) / np.sqrt(2), rel=1e-6)
+
+
+def test_elastic_stage_on_fcc_gives_the_closed_form():
+    """FCC, nearest-neighbour bonds of length d: C44 = (kn + ks)/(sqrt(2) d), C11 = sqrt(2)(kn + ks)/d."""
+    from polypack.mechanics.stages import run_elastic
+
+    cap = pp.registry.get("analysis", "elastic")
+    opts = cap.resolve({})  # defaults: kn = 100, ks = kn / 10, lengths rescaled to r0 = 0.25 um
+    res = run_elastic(fcc(cells=3, d=1.0), opts, np.random.SeedSequence(0))
+    d = 2 * R0
+    c = np.asarray(res["stiffness"])
+    # tolerance 1e-6: the tensor is exact; a wrong ks default (e.g. 10 % off) or radius fails by far
+    assert c[3, 3] == pytest.approx(110.0 / (np.sqrt(2) * d), rel=1e-6)
+    assert c[0, 0] == pytest.approx(np.sqrt(2) * 110.0 / d, rel=1e-6)
+    assert c[0, 1] == pytest.approx(90.0 / (np.sqrt(2) * d), rel=1e-6)
+    assert res["coordination"] == 12.0 and res["n_rattlers"] == 0 and res["relaxation_ratio"] == pytest.approx(1.0)
+    # pack units: radius = 0 keeps lengths (d = 1), so C44 = 110 / sqrt(2)
+    res = run_elastic(fcc(cells=3, d=1.0), cap.resolve({"radius": 0.0, "rotations": False}), None)
+    assert np.asarray(res["stiffness"])[3, 3] == pytest.approx(110.0 / np.sqrt(2), rel=1e-6)
+    assert "shear_modulus_MPa" not in res and res["rotations"] is False
+
+
+def test_elastic_stage_uses_the_protocols_bonds_when_the_pack_has_them():
+    """A pack carrying ``meta["bonds"]`` (as ``pp.brownian`` writes) is bonded with those bonds."""
+    from polypack.mechanics.stages import run_elastic
+
+    base = fcc(cells=3, d=1.0)
+    nn = BondNetwork.from_packing(base, epsilon=0.01)  # nearest neighbours only
+    meta = {"bonds": {"i": nn.i.tolist(), "j": nn.j.tolist(), "shift": nn.shift.tolist()}}
+    pk = pp.Packing(base.positions, base.radii, base.box, meta=meta)
+    cap = pp.registry.get("analysis", "elastic")
+    # epsilon = 0.5 would also bond second neighbours (at sqrt(2) d): the protocol's bonds win under "auto"
+    auto = run_elastic(pk, cap.resolve({"epsilon": 0.5, "radius": 0.0}), None)
+    assert auto["bonds"] == "protocol" and auto["n_bonds"] == nn.n_bonds
+    assert np.asarray(auto["stiffness"])[3, 3] == pytest.approx(110.0 / np.sqrt(2), rel=1e-6)
+    dist = run_elastic(pk, cap.resolve({"epsilon": 0.5, "radius": 0.0, "bonds": "distance"}), None)
+    assert dist["bonds"] == "distance" and dist["n_bonds"] == nn.n_bonds * 3 // 2  # + 6 second neighbours each
+    assert dist["shear_modulus"] > auto["shear_modulus"] * 1.1
+    with pytest.raises(InvalidInputError, match=r'^analysis.elastic.bonds = "protocol": this pack carries no bonds'):
+        run_elastic(base, cap.resolve({"bonds": "protocol"}), None)
+
+
+@pytest.mark.parametrize("table,msg", [
+    ({"epsilon": -1}, r"analysis.elastic.epsilon = -1: must be >= 0"),
+    ({"normal_stiffness": 0}, r"analysis.elastic.normal_stiffness = 0: must be > 0"),
+    ({"bonds": "bd"}, r'analysis.elastic.bonds = "bd": allowed'),
+    ({"solver": "lu"}, r'analysis.elastic.solver = "lu": allowed'),
+    ({"kn": 100}, r"analysis.elastic.kn: unknown key; allowed in \[analysis.elastic\]: bonds, epsilon"),
+])
+def test_elastic_stage_bad_options(table, msg):
+    with pytest.raises(InvalidInputError, match=msg) as exc:
+        validate(_study({"elastic": table}))
+    assert "\n" not in str(exc.value)
+
+
+def test_elastic_stage_errors_name_the_stage():
+    from polypack.mechanics.stages import run_elastic
+
+    cap = pp.registry.get("analysis", "elastic")
+    dilute = pp.Packing(np.array([[1.0, 1.0, 1.0], [4.0, 4.0, 4.0], [1.0, 4.0, 2.0]]), [0.5, 0.5, 0.5], 8.0)
+    with pytest.raises(InfeasibleError, match=r"^analysis.elastic: no pair within"):
+        run_elastic(dilute, cap.resolve({}), None)
+    g = np.stack(np.meshgrid(np.arange(4), np.arange(4), indexing="ij"), -1).reshape(-1, 2) + 0.5
+    disks = pp.Packing(g.astype(float), [0.5] * 16, [4.0, 4.0])  # square lattice of touching disks
+    with pytest.raises(InvalidInputError, match=r"^analysis.elastic: elastic_tensor supports 3D packings only") as exc:
+        run_elastic(disks, cap.resolve({}), None)
+    assert "\n" not in str(exc.value)
