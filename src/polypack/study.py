@@ -84,6 +84,9 @@ prints it with every type, bound, default and doc). The built-ins:
 ``[analysis.elastic]``
     exact elastic tensor of the bonded network (``docs/mechanics.md``): ``bonds``, ``epsilon``,
     ``normal_stiffness``, ``shear_stiffness``, ``rotations``, ``radius``, ``solver``.
+``[analysis.moduli]``
+    effective moduli of the composite (``docs/moduli.md``): ``matrix`` and ``inclusions``
+    (``[E, nu]``, required), ``three_point``, ``mefm``.
 ``[output]``
     ``formats`` (list from ``"gsd"``, ``"xyz"``, ``"data"``, ``"vtp"``, ``"csv"``; GSD is always
     written), ``plots`` (bool), ``plot_format`` (``"png"`` | ``"pdf"`` | ``"svg"``).
@@ -446,7 +449,8 @@ def code_digest() -> str:
         d = root / sub
         if d.is_dir():
             files += sorted(p for p in d.rglob("*.py"))
-    files += [root / n for n in ("packing.py", "neighbors.py", "geometry.py", os.path.join("ensemble", "stages.py"))]
+    files += [root / n for n in ("packing.py", "neighbors.py", "geometry.py", os.path.join("ensemble", "stages.py"),
+                               os.path.join("ensemble", "moduli_stage.py"))]
     for p in files:
         try:
             data = p.read_bytes()

@@ -32,59 +32,30 @@ def parse_phase(text: str, what: str):
 
 
 def moduli_of_pack(pk, matrix, inclusions, three_point=True):
-    """Every estimate for one pack: dict name -> Phase, plus ``zeta2``/``eta2`` if computed.
+    """Every estimate for one pack (:func:`polypack.ensemble.moduli_stage.moduli_of_pack`)."""
+    from ..ensemble.moduli_stage import moduli_of_pack as _of_pack
 
-    ``inclusions`` has one Phase per species of the pack, or a single Phase for all.
-    """
-    from ..analysis import ThreePointParameters
-    from ..errors import InvalidInputError
-    from ..mechanics import hashin_shtrikman, mefm, mori_tanaka, self_consistent, three_point_bounds
-
-    ns = pk.n_species
-    incs = list(inclusions)
-    if len(incs) == 1 and ns > 1:
-        incs = incs * ns
-    if len(incs) != ns:
-        raise InvalidInputError(f"the pack has {ns} species but {len(incs)} inclusion phases were given; give 1 or {ns}")
-    vol = float(np.prod(pk.box))
-    fr = np.array([np.sum(4 / 3 * np.pi * pk.radii[pk.species == s] ** 3) / vol for s in range(ns)])
-    out = {
-        "volume_fraction": float(fr.sum()),
-        "mori_tanaka": mori_tanaka(matrix, incs, fr),
-        "self_consistent": self_consistent(matrix, incs, fr),
-    }
-    lo, up = hashin_shtrikman([matrix, *incs], [1 - fr.sum(), *fr])
-    out["hs_lower"], out["hs_upper"] = lo, up
-    one_phase = all(p == incs[0] for p in incs)
-    if three_point and one_phase:
-        tp = ThreePointParameters().compute(pk)
-        out["zeta2"], out["eta2"] = tp.zeta2, tp.eta2
-        out["three_point_lower"], out["three_point_upper"] = three_point_bounds(
-            matrix, incs[0], fr.sum(), min(max(tp.zeta2, 0.0), 1.0), min(max(tp.eta2, 0.0), 1.0)
-        )
-    out["mefm"] = mefm(matrix, incs, pk)
-    return out
+    return _of_pack(pk, matrix, inclusions, three_point=three_point, path="--inclusions")
 
 
 def summarize(rows, matrix):
-    """Mean and standard error over realizations of every estimate, as plain data."""
-    keys = [k for k in ESTIMATES if all(k in r for r in rows)]
-    res = {"n_realizations": len(rows), "volume_fraction": float(np.mean([r["volume_fraction"] for r in rows]))}
-    for extra in ("zeta2", "eta2"):
-        if all(extra in r for r in rows):
-            v = np.array([r[extra] for r in rows])
-            res[extra] = {"mean": float(v.mean()), "stderr": float(v.std(ddof=1) / np.sqrt(len(v))) if len(v) > 1 else None}
-    for k in keys:
-        entry = {}
-        for q, ref in (("bulk", matrix.bulk), ("shear", matrix.shear), ("young", matrix.young), ("poisson", None)):
-            v = np.array([getattr(r[k], q) for r in rows], dtype=np.float64)
-            mean = float(v.mean())
-            se = float(v.std(ddof=1) / np.sqrt(len(v))) if len(v) > 1 else None
-            entry[q] = {"mean": mean, "stderr": se}
-            if ref:
-                entry[q + "_ratio"] = {"mean": mean / ref, "stderr": None if se is None else se / ref}
-        res[k] = entry
-    return res
+    """Mean and standard error over realizations (:func:`polypack.ensemble.moduli_stage.summarize`)."""
+    from ..ensemble.moduli_stage import summarize as _summarize
+
+    return _summarize(rows, matrix)
+
+
+def study_phases(folder):
+    """``(matrix, inclusions)`` of the ``[analysis.moduli]`` table of a run folder's resolved study, or None."""
+    from ..ensemble.moduli_stage import phases_of
+
+    p = Path(folder) / "study.resolved.json"
+    if not p.is_file():
+        return None
+    table = json.loads(p.read_text(encoding="utf-8")).get("study", {}).get("analysis", {}).get("moduli")
+    if not table:
+        return None
+    return phases_of(table)
 
 
 def load_packs(path):
@@ -145,16 +116,33 @@ def register(app: typer.Typer) -> None:
     @app.command()
     def moduli(
         path: Path = typer.Argument(..., help="Packing file, or a run folder (its realizations give error bars)."),
-        matrix: str = typer.Option(..., "--matrix", help="Matrix 'E,nu' (e.g. 3.01e9,0.394)."),
-        inclusions: List[str] = typer.Option(..., "--inclusions", help="Inclusion 'E,nu'; once for all species or once per species."),
+        matrix: Optional[str] = typer.Option(
+            None, "--matrix", help="Matrix 'E,nu' (e.g. 3.01e9,0.394); default for a run folder: its study's "
+            "[analysis.moduli] matrix."),
+        inclusions: Optional[List[str]] = typer.Option(
+            None, "--inclusions", help="Inclusion 'E,nu'; once for all species or once per species (default for a "
+            "run folder: its study's [analysis.moduli] inclusions)."),
         three_point: bool = typer.Option(True, help="Measure zeta2/eta2 and the three-point bounds (slower)."),
         json_out: Optional[Path] = typer.Option(None, "--json", help="Write the summary as JSON here."),
     ):
         """Effective moduli of a pack: MT, SC, HS, three-point bounds (zeta2 of the pack) and MEFM (its RDFs)."""
         from .._util import atomic_open
 
-        m = parse_phase(matrix, "--matrix")
-        incs = [parse_phase(t, "--inclusions") for t in inclusions]
+        from ..errors import InvalidInputError
+
+        if (matrix is None) != (not inclusions):
+            raise InvalidInputError("give both --matrix and --inclusions, or neither (a run folder whose study has "
+                                    "an [analysis.moduli] table)")
+        if matrix is None:
+            phases = study_phases(path) if Path(path).is_dir() else None
+            if phases is None:
+                raise InvalidInputError(
+                    f"{path}: give --matrix E,nu and --inclusions E,nu (only a run folder whose study has an "
+                    "[analysis.moduli] table provides them)")
+            m, incs = phases
+        else:
+            m = parse_phase(matrix, "--matrix")
+            incs = [parse_phase(t, "--inclusions") for t in inclusions]
         packs, names = load_packs(path)
         rows = []
         for pk in packs:
