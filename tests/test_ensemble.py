@@ -340,3 +340,26 @@ def test_regenerate_a_realization_from_its_record(serial_run):
     assert rec["analysis"] == res.records[1]["analysis"]
     with pytest.raises(InvalidInputError, match="index=7"):
         pp.ensemble.regenerate(out, 7)
+
+
+def test_kernels_compile_in_the_pool_longest_first():
+    """Cold start: every kernel module a study needs is compiled once, spread over the workers."""
+    from polypack.ensemble import runner
+    from polypack.ensemble.stages import study_kernels
+
+    study = tiny()
+    study["protocol"] = {"kind": "scrm", "volume_fraction": 0.45, "growth_steps": 2, "global_shakes": 1}
+
+    class Recorder(cf.ThreadPoolExecutor):
+        submitted = []
+
+        def submit(self, fn, *args):
+            self.submitted.append((fn.__name__, args))
+            return super().submit(fn, *args)
+
+    with Recorder(max_workers=2) as ex:
+        runner._compile_in_pool(ex, study)
+    mods = [a[0] for name, a in Recorder.submitted]
+    assert {name for name, _ in Recorder.submitted} == {"compile_module"}
+    assert sorted(mods) == sorted(study_kernels(study)) and len(mods) == len(set(mods))
+    assert mods[0] == "polypack._kernels.edmd"  # the longest compilation starts first

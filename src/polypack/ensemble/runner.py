@@ -36,7 +36,7 @@ from .._util import atomic_open, check_output_folder, make_folder, progress_bar
 from ..errors import InvalidInputError, PolypackError
 from ..study import Study, load_study
 from ._lock import RunFolderLock
-from .stages import check_available, child_seed_records, compile_kernels, preflight, realize
+from .stages import check_available, child_seed_records, compile_kernels, compile_module, preflight, realize, study_kernels
 
 __all__ = ["run_study", "EnsembleResult", "run_realization", "verify_realization", "aggregate", "regenerate"]
 
@@ -96,6 +96,23 @@ def regenerate(out, index: int):
     else:
         raise InvalidInputError(f"index={index}: the study has realizations 0..{study.realizations - 1}")
     return realize(study.data, index, seed)
+
+
+# the longest compilations first, so they spread evenly over the workers
+_COMPILE_ORDER = ("polypack._kernels.edmd", "polypack._kernels.cells", "polypack._kernels.shake")
+
+
+def _compile_in_pool(pool, study_data):
+    """Compile a study's kernel modules in the pool's workers at once (cold start)."""
+    mods = study_kernels(study_data)
+    mods.sort(key=lambda m: _COMPILE_ORDER.index(m) if m in _COMPILE_ORDER else len(_COMPILE_ORDER))
+    futs = [pool.submit(compile_module, m) for m in mods]
+    waiting = set(futs)
+    while waiting:
+        _, waiting = cf.wait(waiting, timeout=0.25)
+        _interrupt.check("interrupted while the kernels were compiling")
+    for f in futs:
+        f.result()
 
 
 def _worker_init():
@@ -362,10 +379,20 @@ def _run_locked(study, out, seeds, executor, workers, force, progress, aggregate
         elif todo:
             # compile the study's kernels once here: the workers then load the numba cache
             # instead of compiling the same kernels at the same time (cold start)
-            if os.environ.get("POLYPACK_PRECOMPILE", "1") != "0":
-                compile_kernels(study.data)
+            precompile = os.environ.get("POLYPACK_PRECOMPILE", "1") != "0"
             if executor is None:
                 own = executor = cf.ProcessPoolExecutor(max_workers=min(workers, len(todo)), initializer=_worker_init)
+                if precompile:
+                    # the kernel modules are compiled side by side, one per worker, each written
+                    # to the numba cache once; the realizations below load them from the cache
+                    try:
+                        _compile_in_pool(own, study.data)
+                    except BaseException:
+                        _stop_pool(own)
+                        own = None
+                        raise
+            elif precompile:
+                compile_kernels(study.data)
             futs = {executor.submit(run_realization, study.data, i, seeds[i]): i for i in todo}
             try:
                 waiting = set(futs)

@@ -77,17 +77,19 @@ def compile_kernels(study_data) -> dict:
     Run before a process pool starts, so the workers load the cache instead of all
     compiling the same kernels at once. Returns ``{module: seconds}``.
     """
+    return {mod: compile_module(mod) for mod in study_kernels(study_data)}
+
+
+def compile_module(mod: str) -> float:
+    """Compile (or load from the numba cache) one kernel module; the seconds it took."""
     import importlib
     import time
 
-    out = {}
-    for mod in study_kernels(study_data):
-        t0 = time.perf_counter()
-        fn = getattr(importlib.import_module(mod), "warmup", None)
-        if fn is not None:
-            fn()
-        out[mod] = time.perf_counter() - t0
-    return out
+    t0 = time.perf_counter()
+    fn = getattr(importlib.import_module(mod), "warmup", None)
+    if fn is not None:
+        fn()
+    return time.perf_counter() - t0
 
 
 def check_available(study_data):
