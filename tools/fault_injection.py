@@ -234,18 +234,54 @@ def startup_seconds():
     return _STARTUP["t"]
 
 
-def run_cli(args, sigint_after=None, cwd=None, timeout=300):
+def startup_cpu_seconds():
+    """CPU time (user + system) of ``import polypack`` in a fresh interpreter."""
+    if "cpu" not in _STARTUP:
+        import resource
+
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
+        subprocess.run([sys.executable, "-c", "import polypack"], env=cli_env(), check=True)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        _STARTUP["cpu"] = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return _STARTUP["cpu"]
+
+
+def _cpu_seconds(pid):
+    """CPU time used so far by a running child (Linux ``/proc``); None once it has ended."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except (OSError, IndexError):
+        return None
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def run_cli(args, sigint_after=None, cwd=None, timeout=300, clock="wall"):
     """Run ``python -m polypack ARGS``; SIGINT ``sigint_after`` s after the interpreter and
-    ``import polypack`` would have started (:func:`startup_seconds`). Returns (rc, stderr)."""
+    ``import polypack`` would have started. Returns (rc, stderr).
+
+    ``clock="wall"`` counts wall time after :func:`startup_seconds`; ``clock="cpu"`` counts the
+    child's own CPU time after :func:`startup_cpu_seconds`, so the SIGINT lands at the same point
+    of the computation however loaded the machine is (Linux only).
+    """
+    if clock not in ("wall", "cpu"):
+        raise ValueError(f"clock={clock!r}: use 'wall' or 'cpu'")
     if sigint_after is not None:
-        sigint_after += startup_seconds()
+        sigint_after += startup_seconds() if clock == "wall" else startup_cpu_seconds()
     proc = subprocess.Popen([sys.executable, "-m", "polypack", *map(str, args)], cwd=cwd, env=cli_env(),
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    if sigint_after is not None:
+    if sigint_after is not None and clock == "wall":
         try:
             proc.wait(timeout=sigint_after)
         except subprocess.TimeoutExpired:
             proc.send_signal(signal.SIGINT)
+    elif sigint_after is not None:
+        deadline = time.monotonic() + timeout
+        while proc.poll() is None and time.monotonic() < deadline:
+            used = _cpu_seconds(proc.pid)
+            if used is not None and used >= sigint_after:
+                proc.send_signal(signal.SIGINT)
+                break
+            time.sleep(0.02)
     out, err = proc.communicate(timeout=timeout)
     return proc.returncode, err
 
