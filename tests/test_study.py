@@ -23,7 +23,7 @@ def _err(data):
         ({"protocol": {"volume_fraction": 1.2}}, "protocol.volume_fraction = 1.2: must be in (0, 1)"),
         ({"protocol": {"volume_fraction": 0.0}}, "protocol.volume_fraction = 0.0: must be in (0, 1)"),
         ({"protocol": {"volume_fraction": "loose"}}, 'protocol.volume_fraction = "loose": allowed: a number'),
-        ({"protocol": {"kind": "vem"}}, 'protocol.kind = "vem": allowed: "crm", "scrm"'),
+        ({"protocol": {"kind": "nope"}}, 'protocol.kind = "nope": allowed: "crm"'),
         ({"protocol": {"global_shakes": -1}}, "protocol.global_shakes = -1: must be an integer >= 0"),
         ({"protocol": {"global_shakes": 2.5}}, "protocol.global_shakes = 2.5: expected an integer"),
         ({"protocol": {"shake_radius": 0}}, "protocol.shake_radius = 0: must be > 0"),

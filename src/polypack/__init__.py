@@ -54,6 +54,7 @@ __all__ = [
     "scrm",
     "deposit",
     "brownian",
+    "vem",
     "io",
     "psd",
     "analysis",
@@ -72,6 +73,7 @@ _LAZY_FUNCS = {
     "scrm": ("polypack.generate.shake", "scrm"),
     "deposit": ("polypack.generate.deposit", "deposit"),
     "brownian": ("polypack.generate.brownian", "brownian"),
+    "vem": ("polypack.generate.vem", "vem"),
 }
 
 

@@ -30,6 +30,8 @@ _LAZY = {
     "PoreSizes": "pores",
     "nearest_surface_distance": "pores",
     "ThreePointParameters": "threepoint",
+    "power_law_fit": "powerlaw",
+    "PowerLawFit": "powerlaw",
     "theory": None,
 }
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 from importlib import import_module as _import_module
 
 __all__ = ["pack", "shake", "scrm", "deposit", "PackTuning", "ShakeTuning", "brownian", "brownian_bonds",
-           "dlvo_parameters", "dlvo_potential", "dlvo_force", "dlvo_extrema", "plot_dlvo", "DLVO_DEFAULTS"]
+           "dlvo_parameters", "dlvo_potential", "dlvo_force", "dlvo_extrema", "plot_dlvo", "DLVO_DEFAULTS", "vem"]
 
 _LAZY = {
     "pack": ("polypack.generate.lubachevsky", "pack"),
@@ -26,6 +26,7 @@ _LAZY = {
     "DLVO_DEFAULTS": ("polypack.generate.dlvo", "DLVO_DEFAULTS"),
     "PackTuning": ("polypack.generate.lubachevsky", "PackTuning"),
     "ShakeTuning": ("polypack.generate.shake", "ShakeTuning"),
+    "vem": ("polypack.generate.vem", "vem"),
 }
 
 

@@ -123,3 +123,50 @@ register("protocol", "scrm", SCRMOptions, run_scrm, Outputs(),
          doc="SCRM: CRM growth interleaved with shaking, §3.2 of 000_2cedc098acbd866b.txt",
          requires=("polypack.generate:pack", "polypack.generate:scrm", "polypack.generate:shake"),
          check=check_scrm, kernels=("polypack._kernels.cells", "polypack._kernels.edmd", "polypack._kernels.shake"))
+
+
+@dataclass(frozen=True)
+class VEMOptions:
+    volume_fraction: float = option(0.4, v.fraction_open, "structure volume fraction Φ in (0, 0.6]")
+    void_ratio: float = option(1.0, v.positive, "void to structure sphere number ratio N_V / N")
+    growth_factor: float = option(None, v.positive, "void radius factor per expansion stage (default 1.02)")
+    initial_void_radius: float = option(None, v.positive, "initial void radius / mean structure radius (0.1)")
+    normal_stiffness: float = option(None, v.positive, "kn of structure contacts (100)", unit="N/m")
+    shear_stiffness: float = option(None, v.non_negative, "ks of structure contacts (10)", unit="N/m")
+    void_normal_stiffness: float = option(None, v.positive, "kn,V of void contacts (1e2)", unit="N/m")
+    void_shear_stiffness: float = option(None, v.non_negative, "ks,V of void contacts (1e-2)", unit="N/m")
+    friction: float = option(None, v.non_negative, "Coulomb friction of the contacts (0)")
+    damping: float = option(None, v.non_negative, "local damping coefficient α (0.9)")
+    ratio_tolerance: float = option(None, v.positive, "per-stage unbalanced-force ratio (0.01)")
+    jam_overlap: float = option(None, v.positive, "stop: void-contact overlap per void after relaxation (1e-3)")
+    final_relaxation: str = option(None, v.choice("project", "dynamics"), "overlap removal after the voids go")
+
+
+_VEM_KEYS = ("void_ratio", "growth_factor", "initial_void_radius", "normal_stiffness", "shear_stiffness",
+             "void_normal_stiffness", "void_shear_stiffness", "friction", "damping", "ratio_tolerance",
+             "jam_overlap", "final_relaxation")
+
+
+def run_vem(sizes, pr: dict, seed, monitor=None):
+    """VEM structure of the study's sizes (§2.2 of 003_873b69fc71c74cf6.txt)."""
+    from .vem import vem
+
+    kw = {k: pr[k] for k in _VEM_KEYS if k in pr}
+    return vem(sizes, volume_fraction=pr["volume_fraction"], seed=seed, progress=False, **kw)
+
+
+def check_vem(pr: dict, path: str = "protocol") -> None:
+    """Cross-key checks of a resolved VEM table."""
+    from ..errors import InvalidInputError
+    from .vem import MAX_VOLUME_FRACTION
+
+    if pr["volume_fraction"] == "jammed" or pr["volume_fraction"] > MAX_VOLUME_FRACTION:
+        raise InvalidInputError(f"{path}.volume_fraction = {pr['volume_fraction']!r}: VEM reaches (0, "
+                                f"{MAX_VOLUME_FRACTION:g}]")
+
+
+register("protocol", "vem", VEMOptions, run_vem, Outputs(),
+         doc="void expansion method (VEM), §2.2 of 003_873b69fc71c74cf6.txt: heterogeneous structures at Φ",
+         requires=("polypack.generate:vem",), check=check_vem,
+         kernels=("polypack._kernels.cells", "polypack._kernels.edmd", "polypack._kernels.contacts",
+                  "polypack._kernels.dem", "polypack._kernels.vem"))

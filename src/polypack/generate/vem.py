@@ -1,0 +1,617 @@
+"""Heterogeneous packs by the void expansion method (VEM, §2.2 of 003_873b69fc71c74cf6.txt).
+
+Method (Schenker et al. 2009, 2010)
+-----------------------------------
+``N`` structure spheres are placed at random in the periodic cube of Eq. (5) of
+003_873b69fc71c74cf6.txt, ``L = r0 (4 N π / (3 Φ))^(1/3)``; ``N_V = void_ratio N`` much
+smaller *void* spheres are placed at random in the space between them.  The void
+radius is then increased stage by stage; after each increase the assembly is relaxed
+by damped soft-contact dynamics (the discrete-element engine of
+:mod:`polypack._kernels.dem` with the linear contact law of Eq. (1) of
+003_873b69fc71c74cf6.txt and the local damping of Eq. (3) of
+003_873b69fc71c74cf6.txt), so that the expanding voids push the structure spheres
+together.  When the assembly of structure and void spheres jams, the voids are
+deleted, the structure is relaxed, and its residual overlaps are removed: the
+structure spheres of the returned pack are hard (no overlap beyond
+:data:`OVERLAP_TOLERANCE`) and the volume fraction is exactly Φ (the radii and the box
+never change).  Few voids give large pores and a heterogeneous structure (large DOH
+parameter ``a`` of Eq. (6) of 003_873b69fc71c74cf6.txt); many voids a more homogeneous
+one (Table 2 of the seed).
+
+Choices (documented in ``docs/vem.md`` and recorded in ``meta["vem"]``)
+------------------------------------------------------------------------
+Start
+    The structure spheres start as an equilibrium hard-sphere fluid at Φ (random
+    placement without overlaps; Lubachevsky-Stillinger growth, :func:`polypack.pack`);
+    the voids, of radius ``initial_void_radius`` r0 (default 0.1 r0: "much smaller"),
+    at uniformly random points outside every structure sphere.
+Contact law
+    Frictionless by default (``friction = 0``, as in the seed's DEM, §2.1), linear
+    springs per contact: structure-structure ``kn = normal_stiffness`` (100 N/m, Table 1
+    of the seed), ``ks = shear_stiffness``; every contact involving a void ``kn,V =
+    void_normal_stiffness`` = 1e2 N/m and ``ks,V = void_shear_stiffness`` = 1e-2 N/m (§2.2
+    of the seed).  Only the stiffness ratio ``kn,V / kn`` shapes the structure: the run is
+    quasi-static, so masses are scaled to one common value for every sphere (a standard
+    density scaling of quasi-static DEM) and the time step is ``0.2 sqrt(m / k_max)``.
+Growth factor
+    The void radius is multiplied by ``growth_factor`` = 1.02 per stage (a 6 % increase of
+    the void volume; small enough that each stage is a small perturbation of a relaxed
+    state, the quasi-static expansion of the VEM papers).
+Relaxation criterion (per stage)
+    Damped dynamics (local damping ``damping`` = 0.9, the coefficient of the seed and its
+    references [10, 27]) until PFC's mean unbalanced-force ratio (mean ``|F|`` over the
+    spheres divided by the mean contact force, both over the spheres and contacts that
+    carry force) falls below ``ratio_tolerance`` = 0.01 (the ratio of PFC's ``solve``
+    command), or the contacts are unloaded (summed relative overlap per sphere below
+    :data:`UNLOADED`), checked every ``check_every`` steps, at most ``stage_steps``
+    steps.
+Stop criterion
+    Schenker et al. (2009) characterise the expansion by the structure's mean
+    coordination number, which jumps from a low to a high value at a void radius where
+    the total volume fraction (structure plus voids) is slightly below random close
+    packing: the assembly jams.  The expansion stops at the first stage after which the
+    relaxation can no longer unload the contacts: the summed relative overlap
+    ``(r_i + r_j - d) / (r_i + r_j)`` of the void contacts, per void, stays above
+    ``jam_overlap`` (default 1e-3) after the relaxation, i.e. the assembly carries a
+    finite pressure.  (Below jamming the relaxation unloads every contact, to below
+    :data:`UNLOADED` per sphere.)  The evolution of the coordination
+    number (structure-structure contacts carrying force, 2 M / N) is recorded per stage.
+Finish
+    Voids deleted; the residual structure overlaps (about 1 % of the diameter at the
+    stop) are removed by projections (:func:`polypack._kernels.vem.separate`), the
+    smallest moves that make the spheres hard, so every compressed contact ends exactly
+    touching.  ``final_relaxation = "dynamics"`` first relaxes the structure by the
+    seed's steps after each of which all velocities are zeroed (§2.2), which unloads
+    the contacts and opens some of them.
+
+References
+----------
+Schenker, I., Filser, F. T., Herrmann, H. J. & Gauckler, L. J., Generation of porous
+particle structures using the void expansion method, Granular Matter 11, 201 (2009).
+Schenker, I., Filser, F. T. & Gauckler, L. J., Stochastic generation of particle
+structures with controlled degree of heterogeneity, Granular Matter 12, 437 (2010).
+Cundall, P. A. & Strack, O. D. L., Géotechnique 29, 47 (1979).
+Heyes, D. M. & Melrose, J. R., J. Non-Newtonian Fluid Mech. 46, 1 (1993).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+import warnings
+
+import numpy as np
+
+from .._util import as_seed_sequence, progress_bar, seed_record
+from ..errors import InfeasibleError, InvalidInputError, OverlapError
+from ..packing import Packing
+
+__all__ = ["vem", "OVERLAP_TOLERANCE", "MAX_VOLUME_FRACTION", "VEM_DEFAULTS"]
+
+#: Largest relative overlap ``1 - d_ij / (r_i + r_j)`` tolerated between structure spheres
+#: of a returned pack (the final projections remove every overlap; this bounds round-off).
+OVERLAP_TOLERANCE = 1e-9
+#: Largest structure volume fraction accepted: the voids must still find room to expand
+#: before the assembly jams slightly below random close packing (Schenker et al. 2009
+#: generate 0.4 ... 0.6).
+MAX_VOLUME_FRACTION = 0.6
+#: Smallest number of structure spheres.
+MIN_SPHERES = 32
+#: A stage's relaxation also ends when the summed relative overlap of all contacts per
+#: sphere is below this (the contacts are unloaded: the assembly is not jammed).
+UNLOADED = 1e-5
+
+VEM_DEFAULTS = dict(
+    growth_factor=1.02,
+    initial_void_radius=0.1,
+    normal_stiffness=100.0,
+    shear_stiffness=10.0,
+    void_normal_stiffness=100.0,
+    void_shear_stiffness=0.01,
+    friction=0.0,
+    damping=0.9,
+    ratio_tolerance=0.01,
+    jam_overlap=1e-3,
+    check_every=50,
+    stage_steps=3000,
+    max_stages=400,
+)
+
+
+def _number(name, value, lo=None, lo_open=True, hi=None):
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InvalidInputError(f"{name}={value!r}: must be a number") from None
+    if isinstance(value, bool) or not math.isfinite(v):
+        raise InvalidInputError(f"{name}={value!r}: must be a finite number")
+    if lo is not None and (v <= lo if lo_open else v < lo):
+        raise InvalidInputError(f"{name}={value!r}: must be {'>' if lo_open else '>='} {lo:g}")
+    if hi is not None and v > hi:
+        raise InvalidInputError(f"{name}={value!r}: must be <= {hi:g}")
+    return v
+
+
+def _integer(name, value, lo):
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < lo:
+        raise InvalidInputError(f"{name}={value!r}: must be an integer >= {lo}")
+    return int(value)
+
+
+def _structure_radii(n, radius):
+    """Structure radii and species from ``n`` (int, SizeSet, array of radii)."""
+    if isinstance(n, (int, np.integer)) and not isinstance(n, bool):
+        n = _integer("n", n, MIN_SPHERES)
+        r = _number("radius", radius, 0.0)
+        return np.full(n, r), np.zeros(n, np.int64)
+    if hasattr(n, "radii"):
+        radii = np.asarray(n.radii, dtype=np.float64)
+        species = np.asarray(getattr(n, "species", np.zeros(radii.size)), dtype=np.int64)
+    else:
+        try:
+            radii = np.asarray(n, dtype=np.float64).ravel()
+        except (TypeError, ValueError):
+            raise InvalidInputError(f"n={n!r}: give a number of spheres, a SizeSet or an array of radii") from None
+        species = np.zeros(radii.size, np.int64)
+    if radii.size < MIN_SPHERES:
+        raise InvalidInputError(f"n={radii.size}: VEM needs at least {MIN_SPHERES} structure spheres")
+    if not np.all(np.isfinite(radii)) or np.any(radii <= 0):
+        raise InvalidInputError("radii: must be finite and > 0")
+    return radii, species
+
+
+class _Assembly:
+    """Structure + void spheres in reduced units (mean structure radius 1, kn = 1, mass 1)."""
+
+    def __init__(self, pos, radii, box, n_struct, kn, ks, knv, ksv, friction, damping, skin):
+        from .._kernels import dem as K
+
+        self.K = K
+        self.pos = np.ascontiguousarray(pos, dtype=np.float64)
+        self.radii = np.ascontiguousarray(radii, dtype=np.float64)
+        self.box = np.asarray(box, dtype=np.float64)
+        self.h0 = np.diag(self.box)
+        self.ns = int(n_struct)
+        self.kn, self.ks, self.knv, self.ksv = kn, ks, knv, ksv
+        n = self.pos.shape[0]
+        self.mass = np.ones(n)
+        self.inertia = 0.4 * self.radii**2
+        self.vel = np.zeros_like(self.pos)
+        self.omg = np.zeros_like(self.pos)
+        self.kind = np.zeros(n, np.int64)
+        self.st = np.zeros(K.N_ST)
+        self.skin = skin
+        kmax = max(kn, knv, ks, ksv)
+        self.dt = 0.2 / math.sqrt(kmax)
+        p = np.zeros(K.N_P)
+        p[K.P_DT] = self.dt
+        p[K.P_OMEGA] = 1.0
+        p[K.P_RAMP] = 1.0
+        p[K.P_ALPHA] = damping
+        p[K.P_MU] = friction
+        p[K.P_VOLUME] = float(np.prod(self.box))
+        p[K.P_LENGTH] = self.box[2]
+        p[K.P_AXIS_A] = 0
+        p[K.P_AXIS_G] = 2
+        p[K.P_MODE] = K.MODE_LEES_EDWARDS  # damped dynamics, no drive (zero amplitude)
+        p[K.P_SAMPLE_EVERY] = 0
+        p[K.P_SKIN] = skin
+        self.p = p
+        self.samples = np.zeros((1, K.N_S))
+        self._no_edges = np.zeros(0)
+        self._no_layers = np.zeros((1, 0))
+        self.rebuilds = 0
+        self.rebuild()
+
+    # contact list -------------------------------------------------------------------
+    def rebuild(self):
+        from .._kernels.cells import pairs_within
+        from .._kernels.contacts import CONTACT
+        from ..neighbors import choose_cells
+
+        pos, radii, box = self.pos, self.radii, self.box
+        k = np.floor(pos / box)
+        w = np.clip(pos - k * box, 0.0, np.nextafter(box, 0))
+        ncell = choose_cells(box, pos.shape[0], 2.0 * float(radii.min()) + self.skin)
+        pi, pj, _ = pairs_within(w, radii, box, 1.0, self.skin, np.asarray(ncell, np.int64))
+        # canonical order i < j so that the shear history keeps its sign across rebuilds
+        sw = pi > pj
+        i = np.where(sw, pj, pi)
+        j = np.where(sw, pi, pj)
+        shift = -np.round((w[j] - w[i]) / box) - k[j] + k[i]
+        old_keys = getattr(self, "_keys", None)
+        keys = self._keys_of(i, j, shift)
+        order = np.argsort(keys, kind="stable")
+        i, j, shift, keys = i[order], j[order], shift[order], keys[order]
+        m = i.shape[0]
+        struct = (i < self.ns) & (j < self.ns)
+        cfs = np.zeros((m, 3))
+        if old_keys is not None and old_keys.size and m:
+            pos_in_old = np.searchsorted(old_keys, keys)
+            pos_in_old = np.minimum(pos_in_old, old_keys.size - 1)
+            hit = old_keys[pos_in_old] == keys
+            cfs[hit] = self.cfs[pos_in_old[hit]]
+        self._keys = keys
+        self.ci = i.astype(np.int64)
+        self.cj = j.astype(np.int64)
+        self.cshift = np.ascontiguousarray(shift, dtype=np.float64)
+        self.ckn = np.where(struct, self.kn, self.knv)
+        self.cks = np.where(struct, self.ks, self.ksv)
+        self.crest = radii[i] + radii[j]
+        self.cfnb = np.full(m, np.inf)
+        self.cfsb = np.full(m, np.inf)
+        self.cstate = np.full(m, CONTACT, np.int64)
+        self.cfs = cfs
+        self.cfn = np.zeros(m)
+        self.xbuild = self.pos.copy()
+        self.rebuilds += 1
+
+    def _keys_of(self, i, j, shift):
+        s = np.clip(shift.astype(np.int64) + 8, 0, 16)
+        n = np.int64(self.pos.shape[0])
+        return ((i.astype(np.int64) * n + j) * 17 + s[:, 0]) * 289 + s[:, 1] * 17 + s[:, 2]
+
+    # dynamics ---------------------------------------------------------------------
+    def _run(self, steps, sample):
+        K = self.K
+        done = 0
+        self.p[K.P_SAMPLE_EVERY] = 1 if sample else 0
+        while done < steps:
+            status, k, _ = K.run(steps - done, self.pos, self.vel, self.omg, self.radii, self.mass, self.inertia,
+                                 self.kind, self.pos, self.h0, self.ci, self.cj, self.cshift, self.ckn, self.cks,
+                                 self.crest, self.cfnb, self.cfsb, self.cstate, self.cfs, self.cfn, self.p,
+                                 self.st, self.samples, 0, self.xbuild, self._no_edges, self._no_layers)
+            done += k
+            if status == K.STATUS_REBUILD:
+                self.rebuild()
+        self.p[K.P_SAMPLE_EVERY] = 0
+
+    def relax(self, tolerance, check_every, max_steps, overlap_floor=0.0):
+        """Run until the unbalanced-force ratio < tolerance (or no contact carries force).
+
+        The ratio is ``sum_i |F_i| / (2 sum_c |f_c|)`` (in [0, 1]; 0 in static equilibrium):
+        PFC's mean unbalanced force over the mean contact force, with both means taken
+        over the spheres and contacts that carry force, so that spheres without contacts
+        do not dilute it.  Returns ``(steps, ratio)``.
+        """
+        from .._kernels import vem as V
+
+        K = self.K
+        steps = 0
+        ratio = np.inf
+        n = self.pos.shape[0]
+        while steps < max_steps:
+            k = min(check_every, max_steps - steps)
+            if k > 1:
+                self._run(k - 1, False)
+            self._run(1, True)
+            steps += k
+            st = self.stats()
+            active = st[V.C_STRUCT_CONTACTS] + st[V.C_VOID_CONTACTS]
+            fu = self.samples[0, K.S_UNBALANCED] * n
+            fc = self.samples[0, K.S_CONTACT_FORCE] * active
+            ratio = fu / (2.0 * fc) if fc > 0 else 0.0
+            if fc == 0.0 or ratio < tolerance:
+                break
+            if overlap_floor > 0.0 and (st[V.C_STRUCT_OVERLAP_SUM] + st[V.C_VOID_OVERLAP_SUM]) <= overlap_floor * n:
+                break  # contacts unloaded: summed relative overlap per sphere below the floor
+        return steps, ratio
+
+    def stats(self):
+        from .._kernels import vem as V
+
+        out = np.zeros(V.N_C)
+        V.classify(self.pos, self.radii, self.h0, self.ci, self.cj, self.cshift, self.ns, out)
+        return out
+
+    def grow_voids(self, factor):
+        self.radii[self.ns:] *= factor
+        self.inertia = 0.4 * self.radii**2
+        self.rebuild()
+
+    def drop_voids(self):
+        self.pos = np.ascontiguousarray(self.pos[: self.ns])
+        self.radii = np.ascontiguousarray(self.radii[: self.ns])
+        self.mass = self.mass[: self.ns]
+        self.inertia = self.inertia[: self.ns]
+        self.vel = np.zeros_like(self.pos)
+        self.omg = np.zeros_like(self.pos)
+        self.kind = self.kind[: self.ns]
+        self._keys = None
+        self.rebuild()
+
+
+def _initial_structure(radii, box, seed):
+    """A hard-sphere fluid of the structure spheres at Φ (Lubachevsky-Stillinger growth)."""
+    from .lubachevsky import pack
+
+    pk = pack(radii, volume_fraction=float(np.sum(4.0 / 3.0 * np.pi * radii**3) / np.prod(box)), seed=seed,
+              progress=False)
+    scale = float(box[0]) / float(pk.box[0])
+    return np.asarray(pk.positions, dtype=np.float64) * scale
+
+
+def _initial_voids(n_void, struct_pos, struct_radii, box, rv0, rng):
+    """``n_void`` uniformly random points whose void sphere misses every structure sphere."""
+    from scipy.spatial import cKDTree
+
+    tree = cKDTree(np.mod(struct_pos, box), boxsize=box)
+    reach = float(struct_radii.max()) + rv0
+    out = np.empty((0, 3))
+    tries = 0
+    while out.shape[0] < n_void:
+        tries += 1
+        if tries > 1000:
+            raise InfeasibleError("vem: no room for the void spheres between the structure spheres")
+        cand = rng.random((2 * (n_void - out.shape[0]) + 16, 3)) * box
+        cand = np.minimum(cand, np.nextafter(box, 0))
+        near = tree.query_ball_point(cand, reach)
+        ok = np.ones(cand.shape[0], bool)
+        for q, lst in enumerate(near):
+            if lst:
+                d = np.linalg.norm((struct_pos[lst] - cand[q] + 0.5 * box) % box - 0.5 * box, axis=1)
+                ok[q] = bool(np.all(d >= struct_radii[lst] + rv0))
+        out = np.concatenate([out, cand[ok]])[:n_void]
+    return out
+
+
+def vem(
+    n,
+    volume_fraction=0.4,
+    void_ratio=1.0,
+    *,
+    seed=None,
+    radius=1.0,
+    growth_factor=VEM_DEFAULTS["growth_factor"],
+    initial_void_radius=VEM_DEFAULTS["initial_void_radius"],
+    normal_stiffness=VEM_DEFAULTS["normal_stiffness"],
+    shear_stiffness=VEM_DEFAULTS["shear_stiffness"],
+    void_normal_stiffness=VEM_DEFAULTS["void_normal_stiffness"],
+    void_shear_stiffness=VEM_DEFAULTS["void_shear_stiffness"],
+    friction=VEM_DEFAULTS["friction"],
+    damping=VEM_DEFAULTS["damping"],
+    ratio_tolerance=VEM_DEFAULTS["ratio_tolerance"],
+    jam_overlap=VEM_DEFAULTS["jam_overlap"],
+    check_every=VEM_DEFAULTS["check_every"],
+    stage_steps=VEM_DEFAULTS["stage_steps"],
+    max_stages=VEM_DEFAULTS["max_stages"],
+    final_relaxation="project",
+    progress=None,
+) -> Packing:
+    """Heterogeneous pack by the void expansion method (VEM).
+
+    The VEM structure set of §2.2 of 003_873b69fc71c74cf6.txt: structure spheres in the
+    periodic cube of Eq. (5) of 003_873b69fc71c74cf6.txt are rearranged by the damped
+    expansion of ``void_ratio * N`` void spheres (contact law Eq. (1) of
+    003_873b69fc71c74cf6.txt, local damping Eq. (3) of 003_873b69fc71c74cf6.txt), which
+    are deleted at the end.  The method, the growth factor, the relaxation and stop
+    criteria are described in the module docstring of :mod:`polypack.generate.vem`
+    and in ``docs/vem.md``.
+
+    Parameters
+    ----------
+    n : int, SizeSet or array_like
+        Number of structure spheres (>= 32, radius ``radius``), or their radii.
+    volume_fraction : float
+        Structure volume fraction Φ in (0, 0.6]; the seed uses 0.4.  Met exactly.
+    void_ratio : float
+        ``N_V / N`` > 0; the seed uses N_V = 1000 ... 16000 for N = 8000 (0.125 ... 2).
+        Fewer voids give a more heterogeneous structure.
+    seed : int or numpy.random.SeedSequence, optional
+        Seeds the start (hard-sphere fluid and void positions); the run is deterministic
+        after that, so one seed gives the same pack bit for bit on one platform.
+    radius : float
+        Structure sphere radius (user units) when ``n`` is a number (seed: r0 = 0.25 µm;
+        the result depends on it only through the length scale).
+    growth_factor : float
+        Factor (> 1, <= 1.5) applied to the void radius per stage.
+    initial_void_radius : float
+        Initial void radius in units of the mean structure radius (0 < r_V0 <= 0.5).
+    normal_stiffness, shear_stiffness : float
+        kn, ks of structure-structure contacts (N/m; Table 1 of the seed: 100, 10).
+    void_normal_stiffness, void_shear_stiffness : float
+        kn,V and ks,V of every contact involving a void (N/m; seed: 1e2, 1e-2).
+    friction : float
+        Coulomb friction of the contacts (>= 0; default 0, frictionless).
+    damping : float
+        Local damping coefficient α in [0, 1).
+    ratio_tolerance : float
+        Relaxation criterion per stage: mean unbalanced force / mean contact force.
+    jam_overlap : float
+        Stop criterion: mean relative overlap of the void contacts left after a
+        stage's relaxation at which the assembly counts as jammed.
+    check_every, stage_steps, max_stages : int
+        Steps between checks, steps per stage at most, stages at most.
+    final_relaxation : {"project", "dynamics"}
+        After the voids are deleted: ``"project"`` removes the overlaps by projections
+        only (smallest moves; every compressed contact ends exactly touching);
+        ``"dynamics"`` first relaxes the structure by the seed's zero-velocity steps
+        (contacts unload and some open), then projects.
+    progress : bool, optional
+        Progress bar (void diameter, coordination, unbalanced-force ratio); default when
+        stderr is a terminal.
+
+    Returns
+    -------
+    Packing
+        Structure spheres only (positions folded into the box, the given radii and
+        species), box of Eq. (5) of 003_873b69fc71c74cf6.txt, ``meta["vem"]`` with every parameter, the stop reason,
+        the final void diameter, the stage history ``series`` (keys ``stage``,
+        ``void_diameter`` in user units, ``total_fraction``, ``coordination``,
+        ``void_contacts``, ``void_overlap``, ``structure_overlap``, ``ratio``, ``steps``)
+        and ``meta["min_gap"]``.
+
+    Raises
+    ------
+    InvalidInputError
+        ``void_ratio <= 0``, Φ outside (0, 0.6], fewer than 32 spheres, bad parameters.
+    InfeasibleError
+        The box is too small for the voids (N too small), or the voids never jam within
+        ``max_stages``.
+    OverlapError
+        If the returned structure has an overlap beyond :data:`OVERLAP_TOLERANCE`.
+    KeyboardInterrupt
+        Ctrl-C is deferred to the end of a kernel chunk and raised there as
+        :class:`polypack.errors.Interrupted`; no partial pack is returned.
+    """
+    from .. import _interrupt
+    from .._kernels import vem as V
+
+    radii, species = _structure_radii(n, radius)
+    ns = radii.size
+    phi = _number("volume_fraction", volume_fraction, 0.0)
+    if phi > MAX_VOLUME_FRACTION:
+        raise InvalidInputError(
+            f"volume_fraction={volume_fraction!r}: VEM reaches (0, {MAX_VOLUME_FRACTION:g}] (the voids need room "
+            "to expand below random close packing)")
+    vr = _number("void_ratio", void_ratio, 0.0)
+    n_void = int(round(vr * ns))
+    if n_void < 1:
+        raise InvalidInputError(f"void_ratio={void_ratio!r}: gives {n_void} voids for N={ns}; need at least 1")
+    gf = _number("growth_factor", growth_factor, 1.0, hi=1.5)
+    rv0 = _number("initial_void_radius", initial_void_radius, 0.0, hi=0.5)
+    kn = _number("normal_stiffness", normal_stiffness, 0.0)
+    ks = _number("shear_stiffness", shear_stiffness, 0.0, lo_open=False)
+    knv = _number("void_normal_stiffness", void_normal_stiffness, 0.0)
+    ksv = _number("void_shear_stiffness", void_shear_stiffness, 0.0, lo_open=False)
+    mu = _number("friction", friction, 0.0, lo_open=False)
+    alpha = _number("damping", damping, 0.0, lo_open=False)
+    if alpha >= 1.0:
+        raise InvalidInputError(f"damping={damping!r}: must be in [0, 1)")
+    tol = _number("ratio_tolerance", ratio_tolerance, 0.0)
+    jam = _number("jam_overlap", jam_overlap, 0.0)
+    check_every = _integer("check_every", check_every, 1)
+    stage_steps = _integer("stage_steps", stage_steps, 1)
+    max_stages = _integer("max_stages", max_stages, 1)
+    if final_relaxation not in ("project", "dynamics"):
+        raise InvalidInputError(f"final_relaxation={final_relaxation!r}: allowed are 'project' and 'dynamics'")
+
+    ss = as_seed_sequence(seed)
+    s_fluid, s_void = ss.spawn(2)
+    t_wall = time.perf_counter()
+    r0 = float(np.mean(radii))
+    red = radii / r0
+    box_len = (float(np.sum(4.0 / 3.0 * np.pi * red**3)) / phi) ** (1.0 / 3.0)  # Eq. (5) of 003_873b69fc71c74cf6.txt (reduced units)
+    box = np.full(3, box_len)
+    rmax = float(red.max())
+    skin = 0.2 * float(red.min())
+    if 2.0 * (2.0 * rmax + skin) >= box_len:
+        raise InfeasibleError(f"n={ns}: box of {box_len:.3g} radii too small for minimum-image contacts; use more "
+                              "spheres")
+    pos_s = _initial_structure(red, box, s_fluid)
+    rng = np.random.default_rng(s_void)
+    pos_v = _initial_voids(n_void, pos_s, red, box, rv0, rng)
+    pos = np.concatenate([pos_s, pos_v])
+    allr = np.concatenate([red, np.full(n_void, rv0)])
+    asm = _Assembly(pos, allr, box, ns, 1.0, ks / kn, knv / kn, ksv / kn, mu, alpha, skin)
+    vol = float(np.prod(box))
+    vs = float(np.sum(4.0 / 3.0 * np.pi * red**3))
+    series = {k: [] for k in ("stage", "void_diameter", "total_fraction", "coordination", "void_contacts",
+                              "void_overlap", "structure_overlap", "ratio", "steps")}
+    reason = None
+    bar = progress_bar(total=None, desc=f"vem N_V/N={vr:g}", progress=progress, unit="stage")
+    steps_total = 0
+    with _interrupt.deferred():
+        try:
+            stage = 0
+            while True:
+                _interrupt.check(f"vem interrupted at stage {stage}")
+                rv = float(asm.radii[ns]) if n_void else 0.0
+                if 2.0 * (2.0 * max(rmax, rv * gf) + skin) >= box_len:
+                    raise InfeasibleError(
+                        f"n={ns}: the voids (radius {rv:.3g} r0) outgrow the box of {box_len:.3g} r0 before "
+                        "jamming; use more spheres or a larger void_ratio")
+                asm.grow_voids(gf)
+                stage += 1
+                steps, ratio = asm.relax(tol, check_every, stage_steps, overlap_floor=UNLOADED)
+                steps_total += steps
+                st = asm.stats()
+                rv = float(asm.radii[ns])
+                c = 2.0 * st[V.C_STRUCT_CONTACTS] / ns
+                vov = st[V.C_VOID_OVERLAP_SUM] / n_void  # summed relative void-contact overlap per void
+                sov = st[V.C_STRUCT_OVERLAP_SUM] / st[V.C_STRUCT_CONTACTS] if st[V.C_STRUCT_CONTACTS] else 0.0
+                total = (vs + n_void * 4.0 / 3.0 * np.pi * rv**3) / vol
+                for key, val in (("stage", stage), ("void_diameter", 2.0 * rv * r0), ("total_fraction", total),
+                                 ("coordination", c), ("void_contacts", 2.0 * st[V.C_VOID_CONTACTS] / (ns + n_void)),
+                                 ("void_overlap", vov), ("structure_overlap", sov), ("ratio", ratio),
+                                 ("steps", steps)):
+                    series[key].append(float(val) if key != "stage" and key != "steps" else int(val))
+                bar.update(1)
+                bar.set_postfix_str(f"d_V={2 * rv * r0:.3g} C={c:.2f} ratio={ratio:.2g} Φ_tot={total:.3f}")
+                if vov >= jam:
+                    reason = (f"jammed: mean relative void overlap {vov:.3g} >= jam_overlap={jam:g} after the "
+                              f"relaxation of stage {stage}")
+                    break
+                if stage >= max_stages:
+                    raise InfeasibleError(f"vem: the voids did not jam within max_stages={max_stages} stages")
+            _interrupt.check(f"vem interrupted after stage {stage}")
+            void_d = 2.0 * float(asm.radii[ns]) * r0
+            c_jam = series["coordination"][-1]
+            asm.drop_voids()
+            fsteps, fratio = 0, float("nan")
+            if final_relaxation == "dynamics":
+                asm.p[asm.K.P_MODE] = asm.K.MODE_RELAX
+                fsteps, fratio = asm.relax(tol, check_every, 20 * stage_steps, overlap_floor=UNLOADED)
+                steps_total += fsteps
+            _interrupt.check("vem interrupted in the final relaxation")
+            wpos = np.mod(asm.pos, box)
+            wpos = np.minimum(wpos, np.nextafter(box, 0))
+            from .._kernels.cells import pairs_within
+            from ..neighbors import choose_cells
+
+            ncell = choose_cells(box, ns, 2.0 * float(red.min()) + skin)
+            pi, pj, _ = pairs_within(wpos, red, box, 1.0, skin, np.asarray(ncell, np.int64))
+            status, sweeps, worst = V.separate(wpos, red, box, pi, pj, 1.0 + 1e-10, 100000)
+        finally:
+            bar.close()
+    wpos = np.mod(wpos, box)
+    wpos = np.minimum(wpos, np.nextafter(box, 0))
+    wall = time.perf_counter() - t_wall
+    scale = r0
+    meta = {
+        "generator": "vem",
+        "seed": seed_record(ss),
+        "vem": {
+            "volume_fraction": phi,
+            "void_ratio": vr,
+            "n_structure": ns,
+            "n_void": n_void,
+            "radius": r0,
+            "growth_factor": gf,
+            "initial_void_radius": rv0,
+            "normal_stiffness": kn,
+            "shear_stiffness": ks,
+            "void_normal_stiffness": knv,
+            "void_shear_stiffness": ksv,
+            "friction": mu,
+            "damping": alpha,
+            "ratio_tolerance": tol,
+            "jam_overlap": jam,
+            "check_every": check_every,
+            "stage_steps": stage_steps,
+            "max_stages": max_stages,
+            "final_relaxation": final_relaxation,
+            "mass_scaling": "one common mass for all spheres; time step 0.2 sqrt(m / k_max)",
+            "stop_reason": reason,
+            "stages": len(series["stage"]),
+            "final_void_diameter": void_d,
+            "coordination_at_jamming": c_jam,
+            "final_relaxation_steps": int(fsteps),
+            "final_relaxation_ratio": float(fratio),
+            "separation_sweeps": int(sweeps),
+            "separation_converged": bool(status == V.SEPARATE_DONE),
+            "overlap_before_separation": float(worst),
+            "steps": int(steps_total),
+            "neighbour_rebuilds": int(asm.rebuilds),
+            "wall_time": wall,
+            "series": series,
+        },
+    }
+    out = Packing(wpos * scale, radii, box * scale, species=species, meta=meta)
+    gap = out.min_gap()
+    out.meta["min_gap"] = float(gap)
+    if gap < -OVERLAP_TOLERANCE:
+        raise OverlapError(f"vem structure has a relative overlap {-gap:.3g} > tolerance {OVERLAP_TOLERANCE:g}")
+    if status != V.SEPARATE_DONE:
+        warnings.warn("vem: overlap removal used its sweep budget", RuntimeWarning, stacklevel=2)
+    return out
