@@ -33,6 +33,11 @@ def register(app: typer.Typer) -> None:
         from ..errors import InvalidInputError
         from ..study import load_study
 
+        from ..ensemble.sweep import has_sweep
+
+        if has_sweep(study):  # a [sweep] table: one study per value, then its report (docs/run.md)
+            _run_sweep(study, out, workers, scheduler, dask, check, force, wait, progress)
+            return
         st = load_study(study)
         if check:
             from ..ensemble.stages import check_available, child_seed_records, preflight
@@ -62,3 +67,32 @@ def register(app: typer.Typer) -> None:
             )
             raise SystemExit(130) from None
         typer.echo(res.summary())
+
+
+def _run_sweep(study, out, workers, scheduler, dask, check, force, wait, progress):
+    from ..errors import InvalidInputError
+    from ..ensemble.sweep import run_sweep, sweep_studies
+
+    sw, studies, name = sweep_studies(study)
+    if check:
+        from ..ensemble.stages import check_available, child_seed_records, preflight
+
+        for _, st in studies:
+            check_available(st.data)
+            preflight(st.data, child_seed_records(st.seed, 1)[0])
+        typer.echo(f"# {study}: valid sweep over {len(studies)} values of {sw['parameter']}: "
+                   f"{', '.join(repr(v) for v, _ in studies)}")
+        return
+    if scheduler and dask:
+        raise InvalidInputError("--scheduler and --dask: give one (--scheduler uses an existing cluster)")
+    try:
+        if scheduler or dask:
+            from ..ensemble import dask_executor
+
+            with dask_executor(address=scheduler, n_workers=workers) as ex:
+                run_sweep(study, out, executor=ex, force=force, progress=progress, wait=wait, echo=typer.echo)
+        else:
+            run_sweep(study, out, workers=workers, force=force, progress=progress, wait=wait, echo=typer.echo)
+    except KeyboardInterrupt:
+        typer.echo("interrupted: finished realizations are saved; rerun the same command to resume", err=True)
+        raise SystemExit(130) from None

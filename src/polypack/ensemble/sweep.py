@@ -1,0 +1,354 @@
+"""Parameter sweeps of a study, and the seed's heterogeneity report (Table 2, Figs. 2 and 6).
+
+A study file with a ``[sweep]`` table runs once per value of one parameter
+(``polypack run study.toml`` detects it)::
+
+    [sweep]
+    parameter = "protocol.void_ratio"      # a key path of the study
+    values = [0.125, 0.25, 0.5, 1.0, 1.625, 2.0]
+    report = "heterogeneity"               # optional post-processing over all values
+    include = []                           # run folders of other structure sets for the report
+
+Every value is an ordinary study (same seed: common random numbers across values),
+written to ``<out>/<key>=<value>/`` with all the files of ``polypack run``; rerunning
+resumes each.  ``report = "heterogeneity"`` then writes ``<out>/heterogeneity/``:
+
+* ``table2.csv`` / ``table2.md``: per value N_V/N, DOH ``a`` and ``b`` (Eq. (6) of
+  003_873b69fc71c74cf6.txt, printed form, from ``[analysis.pores]``), coordination ``C``
+  (``[analysis.contacts]``) and ``G'p`` in MPa (mean ± standard deviation over the
+  structures' shear moduli C44, C55, C66, the static counterpart of the seed's six
+  shear directions, and over realizations);
+* ``fit.json``: the power law Eq. (7) of 003_873b69fc71c74cf6.txt over every structure of
+  every set (:func:`polypack.analysis.power_law_fit`);
+* ``fig2.png`` (C against a) and ``fig6.png`` (G'p against a with the fit), each with the
+  seed's Table 2 values beside the measurement.
+
+``G'p`` comes from ``[analysis.elastic]`` records when the study has that stage
+(``plate_shear_modulus`` / ``shear_moduli``); otherwise the report computes it from each
+saved pack through :mod:`polypack.mechanics` (bonds at ``epsilon``, the exact static tensor
+of :func:`polypack.mechanics.elastic_tensor`) with the options of ``[sweep.elastic]``
+(defaults: epsilon 0.01, kn 100 N/m, ks 10 N/m, Table 1 of the seed).  Moduli are in Pa
+when the pack is in metres (the seed's r0 = 0.25 µm).
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InvalidInputError
+
+__all__ = ["has_sweep", "run_sweep", "heterogeneity_report", "SEED_TABLE2"]
+
+#: Table 2 of 003_873b69fc71c74cf6.txt (N = 8000, Φ = 0.4, kn = 100 N/m): VEM rows
+#: (N_V/N, a, C, G'p MPa, error) and BD rows (Ψ0 mV, a, C, G'p MPa, error).
+SEED_TABLE2 = {
+    "vem": [(1000 / 8000, 0.594, 4.68, 1.73, 0.383), (2000 / 8000, 0.521, 4.71, 1.83, 0.136),
+            (4000 / 8000, 0.467, 4.69, 1.62, 0.190), (8000 / 8000, 0.418, 4.69, 1.32, 0.237),
+            (13000 / 8000, 0.399, 4.69, 1.32, 0.267), (16000 / 8000, 0.392, 4.61, 1.17, 0.231)],
+    "bd": [(0.0, 0.373, 4.52, 0.480, 0.049), (12.0, 0.404, 4.84, 1.19, 0.141), (13.0, 0.410, 4.75, 1.05, 0.124),
+           (14.0, 0.472, 5.08, 1.46, 0.120), (15.0, 0.536, 4.97, 1.62, 0.213)],
+}
+
+_SWEEP_KEYS = {"parameter", "values", "report", "include", "elastic"}
+_ELASTIC_DEFAULTS = {"epsilon": 0.01, "normal_stiffness": 100.0, "shear_stiffness": 10.0}
+
+
+def _read(path_or_data):
+    if isinstance(path_or_data, dict):
+        return copy.deepcopy(path_or_data), None
+    path = Path(path_or_data)
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh), path
+    except (OSError, tomllib.TOMLDecodeError):
+        return None, path
+
+
+def has_sweep(path_or_data) -> bool:
+    """True if the study file (or dict) has a ``[sweep]`` table."""
+    data, _ = _read(path_or_data)
+    return isinstance(data, dict) and "sweep" in data
+
+
+def _check_sweep(sw) -> dict:
+    if not isinstance(sw, dict):
+        raise InvalidInputError(f"sweep = {sw!r}: expected a table")
+    unknown = sorted(set(sw) - _SWEEP_KEYS)
+    if unknown:
+        raise InvalidInputError(f"sweep.{unknown[0]}: unknown key; allowed: {', '.join(sorted(_SWEEP_KEYS))}")
+    par = sw.get("parameter")
+    if not isinstance(par, str) or par.count(".") < 1 or par.split(".")[0] not in ("protocol", "psd", "analysis"):
+        raise InvalidInputError(f"sweep.parameter = {par!r}: give a key path such as \"protocol.void_ratio\"")
+    vals = sw.get("values")
+    if not isinstance(vals, list) or not vals:
+        raise InvalidInputError(f"sweep.values = {vals!r}: give a non-empty list")
+    if len(set(map(repr, vals))) != len(vals):
+        raise InvalidInputError(f"sweep.values = {vals!r}: values must differ")
+    rep = sw.get("report")
+    if rep not in (None, "heterogeneity"):
+        raise InvalidInputError(f"sweep.report = {rep!r}: allowed: \"heterogeneity\"")
+    inc = sw.get("include", [])
+    if not isinstance(inc, list) or not all(isinstance(x, str) for x in inc):
+        raise InvalidInputError(f"sweep.include = {inc!r}: give a list of run folders")
+    el = dict(_ELASTIC_DEFAULTS)
+    el_in = sw.get("elastic", {})
+    if not isinstance(el_in, dict) or set(el_in) - set(_ELASTIC_DEFAULTS):
+        raise InvalidInputError(f"sweep.elastic = {el_in!r}: allowed keys {', '.join(_ELASTIC_DEFAULTS)}")
+    for k, v in el_in.items():
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
+            raise InvalidInputError(f"sweep.elastic.{k} = {v!r}: must be a number >= 0")
+        el[k] = float(v)
+    return {"parameter": par, "values": vals, "report": rep, "include": inc, "elastic": el}
+
+
+def _set_path(data, path, value):
+    keys = path.split(".")
+    d = data
+    for k in keys[:-1]:
+        d = d.setdefault(k, {})
+        if not isinstance(d, dict):
+            raise InvalidInputError(f"sweep.parameter = {path!r}: {k} is not a table")
+    d[keys[-1]] = value
+
+
+def _label(par, v):
+    return f"{par.split('.')[-1]}={v:g}" if isinstance(v, (int, float)) else f"{par.split('.')[-1]}={v}"
+
+
+def sweep_studies(path_or_data):
+    """``(sweep, [(value, Study), ...], name)``: one validated study per value."""
+    from ..study import load_study
+
+    data, path = _read(path_or_data)
+    if data is None:
+        load_study(path)  # raises the study loader's one-line error
+    sw = _check_sweep(data.pop("sweep"))
+    name = data.get("study", {}).get("name") or (path.stem if path is not None else "sweep")
+    studies = []
+    for v in sw["values"]:
+        d = copy.deepcopy(data)
+        _set_path(d, sw["parameter"], v)
+        d.setdefault("study", {})["name"] = f"{name}-{_label(sw['parameter'], v)}"
+        try:
+            st = load_study(d)
+        except InvalidInputError as exc:
+            raise InvalidInputError(f"sweep value {v!r}: {exc}") from None
+        studies.append((v, st))
+    return sw, studies, name
+
+
+def run_sweep(path_or_data, out=None, *, workers=1, executor=None, force=False, progress=None, wait=0.0,
+              echo=print):
+    """Run every value of a swept study, then its report; returns ``{value: EnsembleResult}``."""
+    from .runner import run_study
+
+    sw, studies, name = sweep_studies(path_or_data)
+    out = Path(out) if out is not None else Path("out") / name
+    results = {}
+    for v, st in studies:
+        sub = out / _label(sw["parameter"], v)
+        res = run_study(st, sub, executor=executor, workers=workers, force=force, progress=progress, wait=wait)
+        echo(res.summary())
+        results[v] = res
+    if sw["report"] == "heterogeneity":
+        files = heterogeneity_report(out, [(v, out / _label(sw["parameter"], v)) for v, _ in studies],
+                                     parameter=sw["parameter"], include=sw["include"], elastic=sw["elastic"])
+        echo("heterogeneity report: " + ", ".join(str(p) for p in files.values()))
+    return results
+
+
+# ------------------------------------------------------------------------- the heterogeneity report
+def _records(folder: Path):
+    from .runner import is_complete
+
+    recs = []
+    for p in sorted((folder / "realizations").glob("r[0-9]*.json")):
+        rec = json.loads(p.read_text())
+        if is_complete(rec):
+            recs.append((rec, p.with_suffix(".gsd")))
+    return recs
+
+
+def _structure_values(rec, gsd, elastic):
+    """``(a, b, C, G'p, G'p_sd, source)`` of one structure."""
+    ana = rec.get("analysis", {})
+    pores = ana.get("pores")
+    if pores is None:
+        raise InvalidInputError("heterogeneity report: the study needs [analysis.pores] (DOH, Eq. 6)")
+    fit = pores["fit"]["seed"]
+    a, b = float(fit["a"]), float(fit["b"])
+    c = ana.get("contacts", {}).get("coordination")
+    el = ana.get("elastic")
+    if isinstance(el, dict) and ("shear_moduli" in el or "plate_shear_modulus" in el):
+        g3 = np.asarray(el.get("shear_moduli", [el.get("plate_shear_modulus")]), dtype=np.float64)
+        src = "[analysis.elastic]"
+        if c is None:
+            c = el.get("coordination")
+    else:
+        from .. import io
+        from ..mechanics import BondNetwork, elastic_tensor
+
+        pk = io.read(str(gsd))
+        net = BondNetwork.from_packing(pk, epsilon=elastic["epsilon"], normal_stiffness=elastic["normal_stiffness"],
+                                       shear_stiffness=elastic["shear_stiffness"])
+        et = elastic_tensor(net)
+        g3 = np.asarray(et.shear_moduli, dtype=np.float64)
+        src = "report (pp.mechanics.elastic_tensor)"
+        if c is None:
+            c = net.coordination
+    return a, b, float(c) if c is not None else float("nan"), float(g3.mean()), float(g3.std(ddof=0)), src
+
+
+def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=(), elastic=None, fmt="png"):
+    """Table 2, Figs. 2 and 6 and the Eq. (7) fit over the structures of ``sets``.
+
+    ``sets`` is a list of ``(value, run_folder)``; ``include`` more run folders (other
+    structure sets, e.g. SCRM or Brownian-dynamics packs at Φ = 0.4) that enter the fit
+    and the figures under their folder name.  Returns ``{what: path}``.
+    """
+    from .._util import atomic_path, make_folder
+    from ..analysis.powerlaw import power_law_fit
+
+    elastic = dict(_ELASTIC_DEFAULTS, **(elastic or {}))
+    rep = Path(out) / "heterogeneity"
+    make_folder(rep)
+    rows, points = [], []
+    sources = set()
+    groups = [(v, Path(f), "VEM") for v, f in sets] + [(Path(f).name, Path(f), Path(f).name) for f in include]
+    for v, folder, label in groups:
+        vals = []
+        for rec, gsd in _records(folder):
+            a, b, c, g, gsd_sd, src = _structure_values(rec, gsd, elastic)
+            sources.add(src)
+            vals.append((a, b, c, g, gsd_sd))
+            points.append({"set": label, "value": v, "index": rec["index"], "a": a, "b": b, "C": c,
+                           "G_Pa": g, "G_sd_Pa": gsd_sd})
+        if not vals:
+            continue
+        arr = np.asarray(vals)
+        nr = arr.shape[0]
+        se = (lambda x: float(x.std(ddof=1) / math.sqrt(nr)) if nr > 1 else float("nan"))
+        gall = np.sqrt(np.mean(arr[:, 4] ** 2) + (arr[:, 3].var(ddof=1) if nr > 1 else 0.0))
+        rows.append({"set": label, parameter.split(".")[-1]: v, "realizations": nr,
+                     "a": float(arr[:, 0].mean()), "a_se": se(arr[:, 0]), "b": float(arr[:, 1].mean()),
+                     "C": float(np.nanmean(arr[:, 2])), "C_se": se(arr[:, 2]),
+                     "G_MPa": float(arr[:, 3].mean()) * 1e-6, "G_sd_MPa": float(gall) * 1e-6})
+    if not points:
+        raise InvalidInputError(f"heterogeneity report: no complete realization under {out}")
+    a = np.array([p["a"] for p in points])
+    g = np.array([p["G_Pa"] for p in points]) * 1e-6
+    sd = np.array([p["G_sd_Pa"] for p in points]) * 1e-6
+    fit = None
+    pos = g > 0  # structures without a rigid cluster (G'p = 0) lie below a0 and do not enter the fit
+    dropped = int(np.count_nonzero(~pos))
+    if np.count_nonzero(pos) >= 3 and np.ptp(a[pos]) > 0:
+        sig = sd[pos] if np.all(sd[pos] > 0) else None
+        fit = power_law_fit(a[pos], g[pos], sigma=sig)
+        fit_note = fit.note
+    else:
+        fit_note = "fewer than 3 structures with G'p > 0 and a range of a: no fit"
+    if dropped:
+        fit_note += f"; {dropped} structure(s) with G'p = 0 left out of the fit"
+    files = {}
+    key = parameter.split(".")[-1]
+    cols = ["set", key, "realizations", "a", "a_se", "b", "C", "C_se", "G_MPa", "G_sd_MPa"]
+    with atomic_path(rep / "table2.csv") as tmp:
+        with open(tmp, "w") as fh:
+            fh.write(",".join(cols) + "\n")
+            for r in rows:
+                fh.write(",".join(str(r[c]) for c in cols) + "\n")
+    files["table"] = rep / "table2.csv"
+    seed_rows = {round(x[0], 6): x for x in SEED_TABLE2["vem"]}
+    lines = [f"| set | {key} | P | a | b | C | G'p (MPa) | seed a | seed C | seed G'p (MPa) |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        s = seed_rows.get(round(r[key], 6)) if r["set"] == "VEM" and isinstance(r[key], (int, float)) else None
+        sa = f"{s[1]:.3f} | {s[2]:.2f} | {s[3]:.2f} ± {s[4]:.2f}" if s else "– | – | –"
+        lines.append(f"| {r['set']} | {r[key]} | {r['realizations']} | {r['a']:.3f} ± {r['a_se']:.3f} | {r['b']:.3f} | "
+                     f"{r['C']:.2f} | {r['G_MPa']:.3g} ± {r['G_sd_MPa']:.2g} | {sa} |")
+    lines.append("")
+    lines.append(f"G'p source: {', '.join(sorted(sources))}; bonds at epsilon = {elastic['epsilon']:g}, "
+                 f"kn = {elastic['normal_stiffness']:g} N/m, ks = {elastic['shear_stiffness']:g} N/m.")
+    if fit is not None:
+        lines.append(f"Eq. (7) of 003_873b69fc71c74cf6.txt: a0 = {fit.a0:.4f} ± {fit.a0_err:.4f}, "
+                     f"beta = {fit.beta:.3f} ± {fit.beta_err:.3f}, A = {fit.prefactor:.3g} ± "
+                     f"{fit.prefactor_err:.2g} MPa ({fit_note}; without the lowest point a0' = "
+                     f"{fit.a0_without_lowest:.4f}). Seed: a0 = 0.373 ± 0.001, beta = 0.187 ± 0.032.")
+    else:
+        lines.append(fit_note)
+    with atomic_path(rep / "table2.md") as tmp:
+        Path(tmp).write_text("\n".join(lines) + "\n")
+    files["table_md"] = rep / "table2.md"
+    with atomic_path(rep / "fit.json") as tmp:
+        Path(tmp).write_text(json.dumps({"fit": fit.to_dict() if fit is not None else None, "note": fit_note,
+                                         "points": points, "rows": rows, "g_source": sorted(sources),
+                                         "elastic": elastic, "units": "MPa"}, indent=1))
+    files["fit"] = rep / "fit.json"
+    files.update(_plots(rep, points, fit, fmt))
+    return files
+
+
+def _plots(rep, points, fit, fmt):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .._util import atomic_path
+
+    files = {}
+    sets = sorted({p["set"] for p in points}, key=lambda s: (s != "VEM", s))
+    # Fig. 2: C against a
+    fig, ax = plt.subplots(figsize=(5, 4))
+    for s in sets:
+        pa = [p["a"] for p in points if p["set"] == s]
+        pc = [p["C"] for p in points if p["set"] == s]
+        ax.plot(pa, pc, "o", ms=4, label=f"{s} structures (this run)")
+    for key, mk, lab in (("vem", "s", "seed VEM (Table 2, N = 8000)"), ("bd", "^", "seed BD (Table 2)")):
+        ax.plot([x[1] for x in SEED_TABLE2[key]], [x[2] for x in SEED_TABLE2[key]], mk, mfc="none", color="k",
+                label=lab)
+    ax.set_xlabel("DOH parameter a (Eq. 6), dimensionless")
+    ax.set_ylabel("coordination number C (bonds at ε = 0.01)")
+    ax.set_title("seed 003 Fig. 2: coordination against heterogeneity", fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    with atomic_path(rep / f"fig2.{fmt}") as tmp:
+        fig.savefig(tmp, format=fmt, dpi=130)
+    plt.close(fig)
+    files["fig2"] = rep / f"fig2.{fmt}"
+    # Fig. 6: G'p against a with the fit
+    fig, ax = plt.subplots(figsize=(5, 4))
+    for s in sets:
+        sel = [p for p in points if p["set"] == s]
+        ax.errorbar([p["a"] for p in sel], [p["G_Pa"] * 1e-6 for p in sel], yerr=[p["G_sd_Pa"] * 1e-6 for p in sel],
+                    fmt="o", ms=4, capsize=2, label=f"{s} structures (this run; bars: C44, C55, C66 spread)")
+    for key, mk, lab in (("vem", "s", "seed VEM (Table 2)"), ("bd", "^", "seed BD (Table 2)")):
+        ax.errorbar([x[1] for x in SEED_TABLE2[key]], [x[3] for x in SEED_TABLE2[key]],
+                    yerr=[x[4] for x in SEED_TABLE2[key]], fmt=mk, mfc="none", color="k", capsize=2, label=lab)
+    a_all = [p["a"] for p in points] + [x[1] for x in SEED_TABLE2["vem"] + SEED_TABLE2["bd"]]
+    lo, hi = min(a_all) - 0.03, max(a_all) + 0.03
+    if fit is not None and math.isfinite(fit.a0):
+        xs = np.linspace(max(fit.a0, lo), hi, 300)
+        ax.plot(xs, fit(xs), "-", color="C3", label=f"Eq. (7) fit: a0 = {fit.a0:.3g} ± {fit.a0_err:.2g}, "
+                f"β = {fit.beta:.3g} ± {fit.beta_err:.2g}" + ("" if fit.a0_determined else " (a0 not determined)"))
+        if lo <= fit.a0 <= hi:
+            ax.axvline(fit.a0, ls="--", color="C3", lw=0.8, label="critical DOH a0 (fit)")
+    ax.axvline(0.373, ls=":", color="k", lw=0.8, label="seed a0 = 0.373")
+    ax.set_xlim(lo, hi)
+    ax.set_ylim(bottom=0.0)
+    ax.set_xlabel("DOH parameter a (Eq. 6), dimensionless")
+    ax.set_ylabel("plateau storage modulus G'p (MPa)")
+    ax.set_title("seed 003 Fig. 6: G'p against DOH (r0 = 0.25 µm, kn = 100 N/m)", fontsize=9)
+    ax.legend(fontsize=6)
+    fig.tight_layout()
+    with atomic_path(rep / f"fig6.{fmt}") as tmp:
+        fig.savefig(tmp, format=fmt, dpi=130)
+    plt.close(fig)
+    files["fig6"] = rep / f"fig6.{fmt}"
+    return files

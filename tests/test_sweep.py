@@ -1,0 +1,112 @@
+"""Sweeps of a study over one parameter and the heterogeneity report (seed 003 Table 2, Figs. 2, 6)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import polypack as pp
+from polypack.ensemble.sweep import has_sweep, run_sweep, sweep_studies
+from polypack.errors import InvalidInputError
+
+
+def _study(n=64, values=(0.5, 2.0), **sweep):
+    return {
+        "study": {"name": "het", "seed": 5, "realizations": 2},
+        "psd": {"model": "monodisperse", "d": 0.5e-6, "n": n},
+        "protocol": {"kind": "vem", "volume_fraction": 0.4},
+        "analysis": {"pores": {"n_points": 5000}, "contacts": {"tolerance": 0.01}},
+        "output": {"plots": False},
+        "sweep": {"parameter": "protocol.void_ratio", "values": list(values), "report": "heterogeneity", **sweep},
+    }
+
+
+@pytest.mark.parametrize("sweep, match", [
+    ({"parameter": "void_ratio"}, "sweep.parameter"),
+    ({"values": []}, "sweep.values"),
+    ({"values": [1.0, 1.0]}, "must differ"),
+    ({"report": "table"}, "sweep.report"),
+    ({"bogus": 1}, "sweep.bogus: unknown key"),
+    ({"values": [-1.0]}, "sweep value -1.0: protocol.void_ratio"),
+])
+def test_bad_sweeps_are_one_line_errors(sweep, match):
+    with pytest.raises(InvalidInputError, match=match) as info:
+        sweep_studies(_study(**{k: v for k, v in sweep.items() if k != "values"},
+                             **({"values": sweep["values"]} if "values" in sweep else {})))
+    assert "\n" not in str(info.value)
+
+
+def test_every_value_is_an_ordinary_study():
+    assert has_sweep(_study())
+    sw, studies, name = sweep_studies(_study(values=(0.25, 1.0, 2.0)))
+    assert name == "het" and [v for v, _ in studies] == [0.25, 1.0, 2.0]
+    for v, st in studies:
+        assert st.data["protocol"]["void_ratio"] == v
+        assert st.seed == 5  # common random numbers across values
+    assert len({st.fingerprint for _, st in studies}) == 3
+
+
+@pytest.mark.slow
+def test_sweep_runs_and_reports(tmp_path):
+    out = tmp_path / "het"
+    res = run_sweep(_study(), out, progress=False, echo=lambda s: None)
+    assert set(res) == {0.5, 2.0}
+    rep = out / "heterogeneity"
+    for f in ("table2.csv", "table2.md", "fit.json", "fig2.png", "fig6.png"):
+        assert (rep / f).stat().st_size > 0
+    data = json.loads((rep / "fit.json").read_text())
+    assert len(data["points"]) == 4 and len(data["rows"]) == 2
+    # the table's a and C are the means of the records' own DOH fits and coordinations
+    for row in data["rows"]:
+        folder = out / f"void_ratio={row['void_ratio']:g}" / "realizations"
+        recs = [json.loads(p.read_text()) for p in sorted(folder.glob("r*.json"))]
+        a = np.mean([r["analysis"]["pores"]["fit"]["seed"]["a"] for r in recs])
+        c = np.mean([r["analysis"]["contacts"]["coordination"] for r in recs])
+        assert row["a"] == pytest.approx(a, rel=1e-12) and row["C"] == pytest.approx(c, rel=1e-12)
+    # G'p of one structure equals the mean of C44, C55, C66 of its bonded network (Pa -> MPa)
+    p0 = data["points"][0]
+    pk = pp.io.read(str(out / f"void_ratio={p0['value']:g}" / "realizations" / f"r{p0['index']:04d}.gsd"))
+    net = pp.mechanics.BondNetwork.from_packing(pk, epsilon=0.01, normal_stiffness=100.0, shear_stiffness=10.0)
+    et = pp.mechanics.elastic_tensor(net)
+    assert p0["G_Pa"] == pytest.approx(float(np.mean(et.shear_moduli)), rel=1e-9)
+    # rerunning resumes (nothing recomputed)
+    again = run_sweep(_study(), out, progress=False, echo=lambda s: None)
+    assert all(not r.computed for r in again.values())
+
+
+@pytest.mark.slow
+def test_polypack_run_detects_a_sweep(tmp_path):
+    from typer.testing import CliRunner
+
+    from polypack.cli import app
+
+    text = """
+[study]
+name = "h"
+seed = 2
+realizations = 1
+[psd]
+model = "monodisperse"
+d = 0.5e-6
+n = 48
+[protocol]
+kind = "vem"
+volume_fraction = 0.4
+[analysis.pores]
+n_points = 2000
+[output]
+plots = false
+[sweep]
+parameter = "protocol.void_ratio"
+values = [1.0, 2.0]
+"""
+    f = tmp_path / "h.toml"
+    f.write_text(text)
+    res = CliRunner().invoke(app, ["run", str(f), "--out", str(tmp_path / "o")])
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "o" / "void_ratio=1" / "summary.csv").exists()
+    assert (tmp_path / "o" / "void_ratio=2" / "summary.csv").exists()
+    res = CliRunner().invoke(app, ["run", str(f), "--check"])
+    assert res.exit_code == 0 and "2 values of protocol.void_ratio" in res.output, res.output
