@@ -206,7 +206,7 @@ def _structure_values(rec, gsd, elastic):
 
 
 def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=(), elastic=None, fmt="png"):
-    """Table 2, Figs. 2 and 6 and the Eq. (7) fit over the structures of ``sets``.
+    """Table 2, Figs. 2 and 6 and the fit of Eq. (7) of 003_873b69fc71c74cf6.txt over the structures of ``sets``.
 
     ``sets`` is a list of ``(value, run_folder)``; ``include`` more run folders (other
     structure sets, e.g. SCRM or Brownian-dynamics packs at Φ = 0.4) that enter the fit
@@ -335,7 +335,7 @@ def _plots(rep, points, fit, fmt):
     lo, hi = min(a_all) - 0.03, max(a_all) + 0.03
     if fit is not None and math.isfinite(fit.a0):
         xs = np.linspace(max(fit.a0, lo), hi, 300)
-        ax.plot(xs, fit(xs), "-", color="C3", label=f"Eq. (7) fit: a0 = {fit.a0:.3g} ± {fit.a0_err:.2g}, "
+        ax.plot(xs, fit(xs), "-", color="C3", label=f"power-law fit (seed eq. 7): a0 = {fit.a0:.3g} ± {fit.a0_err:.2g}, "
                 f"β = {fit.beta:.3g} ± {fit.beta_err:.2g}" + ("" if fit.a0_determined else " (a0 not determined)"))
         if lo <= fit.a0 <= hi:
             ax.axvline(fit.a0, ls="--", color="C3", lw=0.8, label="critical DOH a0 (fit)")
