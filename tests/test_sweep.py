@@ -110,3 +110,16 @@ values = [1.0, 2.0]
     assert (tmp_path / "o" / "void_ratio=2" / "summary.csv").exists()
     res = CliRunner().invoke(app, ["run", str(f), "--check"])
     assert res.exit_code == 0 and "2 values of protocol.void_ratio" in res.output, res.output
+
+
+def test_bundled_heterogeneity_example_validates():
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "heterogeneity.toml"
+    sw, studies, name = sweep_studies(path)
+    assert name == "heterogeneity" and sw["report"] == "heterogeneity"
+    assert sw["parameter"] == "protocol.void_ratio" and len(studies) >= 3
+    for v, st in studies:
+        assert st.data["protocol"]["kind"] == "vem" and st.data["protocol"]["volume_fraction"] == 0.4
+        assert st.data["psd"]["d"] == 0.5e-6  # r0 = 0.25 µm: moduli in Pa, reported in MPa
+        assert {"pores", "contacts"} <= set(st.data["analysis"])

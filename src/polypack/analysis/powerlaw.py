@@ -36,7 +36,8 @@ def power_law(a, a0, beta, prefactor):
     """``A (a - a0)^β`` for ``a > a0`` and 0 below (Eq. (7) of 003_873b69fc71c74cf6.txt)."""
     a = np.asarray(a, dtype=np.float64)
     x = np.clip(a - a0, 0.0, None)
-    return prefactor * x**beta
+    with np.errstate(over="ignore", under="ignore"):
+        return prefactor * x**beta
 
 
 @dataclass
