@@ -559,9 +559,19 @@ def vem(
             from .._kernels.cells import pairs_within
             from ..neighbors import choose_cells
 
-            ncell = choose_cells(box, ns, 2.0 * float(red.min()) + skin)
-            pi, pj, _ = pairs_within(wpos, red, box, 1.0, skin, np.asarray(ncell, np.int64))
-            status, sweeps, worst = V.separate(wpos, red, box, pi, pj, 1.0 + 1e-10, 100000)
+            ncell = np.asarray(choose_cells(box, ns, 2.0 * float(red.min()) + skin), np.int64)
+            # rounds of projections over a fresh candidate list until a round starts without overlap
+            # (large overlaps move spheres by more than the list's skin)
+            sweeps, worst = 0, 0.0
+            for rnd in range(50):
+                pi, pj, _ = pairs_within(wpos, red, box, 1.0, skin, ncell)
+                status, k, first = V.separate(wpos, red, box, pi, pj, 1.0 + 1e-10, 100000)
+                sweeps += k
+                if rnd == 0:
+                    worst = first
+                wpos = np.minimum(np.mod(wpos, box), np.nextafter(box, 0))
+                if first == 0.0 and status == V.SEPARATE_DONE:
+                    break
         finally:
             bar.close()
     wpos = np.mod(wpos, box)
