@@ -122,4 +122,21 @@ def test_bundled_heterogeneity_example_validates():
     for v, st in studies:
         assert st.data["protocol"]["kind"] == "vem" and st.data["protocol"]["volume_fraction"] == 0.4
         assert st.data["psd"]["d"] == 0.5e-6  # r0 = 0.25 µm: moduli in Pa, reported in MPa
-        assert {"pores", "contacts"} <= set(st.data["analysis"])
+        assert {"pores", "contacts", "elastic"} <= set(st.data["analysis"])
+
+
+@pytest.mark.slow
+def test_report_reads_the_elastic_stage(tmp_path):
+    """With [analysis.elastic] in the study the report takes G'p from the records; it equals
+    the report's own computation through pp.mechanics on the same pack (two code paths)."""
+    d = _study(n=64, values=(1.0,))
+    d["analysis"]["elastic"] = {"epsilon": 0.01, "normal_stiffness": 100.0, "radius": 0.25e-6}
+    out = tmp_path / "h"
+    run_sweep(d, out, progress=False, echo=lambda s: None)
+    data = json.loads((out / "heterogeneity" / "fit.json").read_text())
+    assert data["g_source"] == ["[analysis.elastic]"]
+    assert "no fit" in data["note"]  # two structures: too few for three parameters
+    p0 = data["points"][0]
+    pk = pp.io.read(str(out / "void_ratio=1" / "realizations" / f"r{p0['index']:04d}.gsd"))
+    net = pp.mechanics.BondNetwork.from_packing(pk, epsilon=0.01, normal_stiffness=100.0, shear_stiffness=10.0)
+    assert p0["G_Pa"] == pytest.approx(float(np.mean(pp.mechanics.elastic_tensor(net).shear_moduli)), rel=1e-6)
