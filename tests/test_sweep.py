@@ -140,3 +140,23 @@ def test_report_reads_the_elastic_stage(tmp_path):
     pk = pp.io.read(str(out / "void_ratio=1" / "realizations" / f"r{p0['index']:04d}.gsd"))
     net = pp.mechanics.BondNetwork.from_packing(pk, epsilon=0.01, normal_stiffness=100.0, shear_stiffness=10.0)
     assert p0["G_Pa"] == pytest.approx(float(np.mean(pp.mechanics.elastic_tensor(net).shear_moduli)), rel=1e-6)
+
+
+def test_dynamic_moduli_from_the_shear_stage():
+    """sweep.modulus = "shear": G'p is the mean of the per-direction storage moduli of the
+    [analysis.shear] record and its spread their standard deviation (the seed's error bars)."""
+    from polypack.ensemble.sweep import _structure_values
+
+    rec = {"analysis": {"pores": {"fit": {"seed": {"a": 0.45, "b": 0.01}}}, "contacts": {"coordination": 4.6},
+                        "shear": {"coordination": 4.5, "direction": {
+                            f"{g}-{a}": {"storage_modulus": v} for (g, a), v in
+                            zip([(0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1)], [1.0, 2.0, 3.0, 4.0, 5.0, 6.0])}}}}
+    a, b, c, g, sd, src = _structure_values(rec, None, {}, "shear")
+    assert (a, b, c) == (0.45, 0.01, 4.6)
+    assert g == pytest.approx(3.5) and sd == pytest.approx(np.std([1, 2, 3, 4, 5, 6]))
+    assert "shear" in src
+    del rec["analysis"]["shear"]
+    with pytest.raises(InvalidInputError, match="needs \\[analysis.shear\\]"):
+        _structure_values(rec, None, {}, "shear")
+    with pytest.raises(InvalidInputError, match="sweep.modulus"):
+        sweep_studies(_study(modulus="dem"))

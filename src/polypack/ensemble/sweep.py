@@ -8,6 +8,7 @@ A study file with a ``[sweep]`` table runs once per value of one parameter
     values = [0.125, 0.25, 0.5, 1.0, 1.625, 2.0]
     report = "heterogeneity"               # optional post-processing over all values
     include = []                           # run folders of other structure sets for the report
+    modulus = "elastic"                    # G'p: static tensor (default) or "shear" (DEM G')
 
 Every value is an ordinary study (same seed: common random numbers across values),
 written to ``<out>/<key>=<value>/`` with all the files of ``polypack run``; rerunning
@@ -55,7 +56,7 @@ SEED_TABLE2 = {
            (14.0, 0.472, 5.08, 1.46, 0.120), (15.0, 0.536, 4.97, 1.62, 0.213)],
 }
 
-_SWEEP_KEYS = {"parameter", "values", "report", "include", "elastic"}
+_SWEEP_KEYS = {"parameter", "values", "report", "include", "elastic", "modulus"}
 _ELASTIC_DEFAULTS = {"epsilon": 0.01, "normal_stiffness": 100.0, "shear_stiffness": 10.0}
 
 
@@ -104,7 +105,10 @@ def _check_sweep(sw) -> dict:
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
             raise InvalidInputError(f"sweep.elastic.{k} = {v!r}: must be a number >= 0")
         el[k] = float(v)
-    return {"parameter": par, "values": vals, "report": rep, "include": inc, "elastic": el}
+    mod = sw.get("modulus", "elastic")
+    if mod not in ("elastic", "shear"):
+        raise InvalidInputError(f"sweep.modulus = {mod!r}: allowed: \"elastic\" (static tensor), \"shear\" (DEM)")
+    return {"parameter": par, "values": vals, "report": rep, "include": inc, "elastic": el, "modulus": mod}
 
 
 def _set_path(data, path, value):
@@ -158,7 +162,8 @@ def run_sweep(path_or_data, out=None, *, workers=1, executor=None, force=False, 
         results[v] = res
     if sw["report"] == "heterogeneity":
         files = heterogeneity_report(out, [(v, out / _label(sw["parameter"], v)) for v, _ in studies],
-                                     parameter=sw["parameter"], include=sw["include"], elastic=sw["elastic"])
+                                     parameter=sw["parameter"], include=sw["include"], elastic=sw["elastic"],
+                                     modulus=sw["modulus"])
         echo("heterogeneity report: " + ", ".join(str(p) for p in files.values()))
     return results
 
@@ -175,8 +180,14 @@ def _records(folder: Path):
     return recs
 
 
-def _structure_values(rec, gsd, elastic):
-    """``(a, b, C, G'p, G'p_sd, source)`` of one structure."""
+def _structure_values(rec, gsd, elastic, modulus="elastic"):
+    """``(a, b, C, G'p, G'p_sd, source)`` of one structure.
+
+    ``modulus = "shear"`` takes the dynamic storage moduli of the ``[analysis.shear]``
+    record (mean and spread over its shear directions, as the seed's error bars);
+    ``"elastic"`` the static shear moduli C44, C55, C66 of ``[analysis.elastic]`` or, when
+    the record has none, of the report's own :func:`polypack.mechanics.elastic_tensor`.
+    """
     ana = rec.get("analysis", {})
     pores = ana.get("pores")
     if pores is None:
@@ -185,7 +196,15 @@ def _structure_values(rec, gsd, elastic):
     a, b = float(fit["a"]), float(fit["b"])
     c = ana.get("contacts", {}).get("coordination")
     el = ana.get("elastic")
-    if isinstance(el, dict) and ("shear_moduli" in el or "plate_shear_modulus" in el):
+    sh = ana.get("shear")
+    if modulus == "shear":
+        if not isinstance(sh, dict) or "direction" not in sh:
+            raise InvalidInputError("heterogeneity report: sweep.modulus = \"shear\" needs [analysis.shear] in the study")
+        g3 = np.asarray([d["storage_modulus"] for d in sh["direction"].values()], dtype=np.float64)
+        src = "[analysis.shear] (dynamic G')"
+        if c is None:
+            c = sh.get("coordination")
+    elif isinstance(el, dict) and ("shear_moduli" in el or "plate_shear_modulus" in el):
         g3 = np.asarray(el.get("shear_moduli", [el.get("plate_shear_modulus")]), dtype=np.float64)
         src = "[analysis.elastic]"
         if c is None:
@@ -205,7 +224,8 @@ def _structure_values(rec, gsd, elastic):
     return a, b, float(c) if c is not None else float("nan"), float(g3.mean()), float(g3.std(ddof=0)), src
 
 
-def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=(), elastic=None, fmt="png"):
+def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=(), elastic=None, modulus="elastic",
+                         fmt="png"):
     """Table 2, Figs. 2 and 6 and the fit of Eq. (7) of 003_873b69fc71c74cf6.txt over the structures of ``sets``.
 
     ``sets`` is a list of ``(value, run_folder)``; ``include`` more run folders (other
@@ -224,7 +244,7 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
     for v, folder, label in groups:
         vals = []
         for rec, gsd in _records(folder):
-            a, b, c, g, gsd_sd, src = _structure_values(rec, gsd, elastic)
+            a, b, c, g, gsd_sd, src = _structure_values(rec, gsd, elastic, modulus)
             sources.add(src)
             vals.append((a, b, c, g, gsd_sd))
             points.append({"set": label, "value": v, "index": rec["index"], "a": a, "b": b, "C": c,
