@@ -10,6 +10,10 @@ format     extensions                  read back       opened by
 ``csv``    ``.csv``                    yes (exact)     numpy, pandas, spreadsheets
 =========  ==========================  ==============  =====================================
 
+Bonded networks (particles plus bonds and per-bond/per-particle fields) go to ``.gsd``,
+``.vtm`` (VTK multiblock) and LAMMPS ``.data`` through :mod:`polypack.io.bonds`
+(``pp.mechanics.write_network`` builds the arrays from a ``BondNetwork``).
+
 Every write is atomic (a temporary file in the same folder renamed onto the target), so
 an interrupted write leaves the old file or none. Every file carries the provenance
 record ``{"writer": "polypack", "version", "meta"}``; reading returns ``meta`` as written.

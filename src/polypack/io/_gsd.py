@@ -52,8 +52,8 @@ def _box32_up(box: np.ndarray) -> np.ndarray:
     return b32.astype(np.float64)
 
 
-def write(path, packing: Packing) -> None:
-    """Write ``packing`` as a one-frame double-precision HOOMD GSD file (atomically)."""
+def make_frame(packing: Packing):
+    """The one-frame ``gsd.hoomd.Frame`` polypack writes for ``packing`` (see the module notes)."""
     import gsd.hoomd
 
     box = packing.box
@@ -78,9 +78,21 @@ def write(path, packing: Packing) -> None:
     frame.log["polypack/n_species"] = np.array([packing.n_species], dtype=np.int64)
     if not packing.fully_periodic:
         frame.log["polypack/periodic"] = flags.astype(np.uint8)
+    return frame
+
+
+def write_frame(path, frame) -> None:
+    """Write one frame as a double-precision GSD file (atomically)."""
+    import gsd.hoomd
+
     with atomic_path(path) as tmp:
         with gsd.hoomd.open(str(tmp), "w", precision="double") as traj:
             traj.append(frame)
+
+
+def write(path, packing: Packing) -> None:
+    """Write ``packing`` as a one-frame double-precision HOOMD GSD file (atomically)."""
+    write_frame(path, make_frame(packing))
 
 
 def read_with_info(path, frame: int = -1) -> tuple[Packing, dict]:

@@ -29,7 +29,8 @@ from .._util import atomic_open
 from ..packing import Packing
 from ._common import FLOAT, build_packing, fail, format_rows, parse_pbc, parse_provenance, provenance_json
 
-_VTK_TYPES = {"f": "Float64", "i": "Int64", "u": "Int64", "b": "UInt8"}
+# OVITO parses only Int32, Int64, Float32 and Float64 arrays: booleans go out as Int64
+_VTK_TYPES = {"f": "Float64", "i": "Int64", "u": "Int64", "b": "Int64"}
 
 
 def _array(name, vtk_type, columns, fmt, components=1, indent="        ", extra="") -> str:
@@ -43,7 +44,7 @@ def _array(name, vtk_type, columns, fmt, components=1, indent="        ", extra=
 
 
 def data_array(name, values, indent="        ") -> str:
-    """A ``<DataArray>`` for a (n,) or (n, k) numeric array (float64, int64 or bool as uint8)."""
+    """A ``<DataArray>`` for a (n,) or (n, k) numeric array (float64; integers and booleans as int64)."""
     arr = np.asarray(values)
     kind = arr.dtype.kind
     if kind not in _VTK_TYPES:
@@ -80,7 +81,7 @@ def field_data(packing: Packing, provenance: str) -> str:
     return (
         "    <FieldData>\n"
         + _array("box", "Float64", [box[k : k + 1] for k in range(3)], FLOAT, 3, "      ", ' NumberOfTuples="1"')
-        + _array("periodic", "UInt8", [flags[k : k + 1] for k in range(flags.size)], "%d", flags.size, "      ",
+        + _array("periodic", "Int64", [flags[k : k + 1] for k in range(flags.size)], "%d", flags.size, "      ",
                  ' NumberOfTuples="1"')
         + string_array("provenance", provenance)
         + "    </FieldData>\n"
