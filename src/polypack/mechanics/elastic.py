@@ -430,7 +430,7 @@ def elastic_tensor(network, rotations=True, *, radius=None, solver="auto", tol=1
     bj = idx[network.j[bond_on]]
     ell = float(rad[active].mean())
     nd = 6 if rotations else 3
-    h, xi, _ = _hessian(
+    h, xi, caff_on = _hessian(
         n, bi, bj, kn_all[bond_on], ks_all[bond_on],
         np.ascontiguousarray(network.normal[bond_on]), np.ascontiguousarray(network.branch[bond_on]),
         np.ascontiguousarray(network.lever_arm_i[bond_on]), np.ascontiguousarray(network.lever_arm_j[bond_on]),
@@ -466,8 +466,10 @@ def elastic_tensor(network, rotations=True, *, radius=None, solver="auto", tol=1
         x_r = x_full[keep]
     x = np.zeros((n * nd, 6))
     x[keep] = x_r
-    # C = C_aff - Xi^T H^+ Xi / V = C_aff + Xi^T x / V (x = -H^+ Xi)
-    c_rel = c_aff + (xi.T @ x) / volume
+    # C = C_aff - Xi^T H^+ Xi / V = C_aff + Xi^T x / V (x = -H^+ Xi), with C_aff over the
+    # relaxing bonds only: a rattler's bonds and those of clusters that do not wrap the box
+    # relax completely and carry no stress (they stay in affine_stiffness, the Voigt bound)
+    c_rel = caff_on / volume + (xi.T @ x) / volume
     asym = float(np.abs(c_rel - c_rel.T).max() / max(np.abs(c_rel).max(), 1e-300))
     c_rel = 0.5 * (c_rel + c_rel.T)
 
