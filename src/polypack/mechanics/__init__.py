@@ -31,6 +31,12 @@ _LAZY = {
     "elastic_tensor": "elastic",
     "ElasticTensor": "elastic",
     "voigt_average": "elastic",
+    # bonded networks out to OVITO, ParaView, LAMMPS (t22)
+    "write_network": "export",
+    "read_network": "export",
+    "bond_forces": "export",
+    "lammps_shear_input": "export",
+    "fit_lammps_shear": "export",
 }
 
 __all__ = sorted(_LAZY)
