@@ -70,7 +70,11 @@ prints it with every type, bound, default and doc). The built-ins:
     ``"collision"``, ``"metropolis"``), ``adaptive`` (bool).  ``"scrm"`` (default): the same
     without ``max_seconds`` (M default 60), plus ``schedule`` (increasing volume fractions of
     the growth stages; the target is appended), or ``growth_steps`` (>= 1) from
-    ``start_fraction``; ``stage_shakes`` (global shakes after each stage).
+    ``start_fraction``; ``stage_shakes`` (global shakes after each stage).  ``"brownian"``: a
+    colloidal gel by Brownian dynamics (``[psd]`` of one size; ``volume_fraction``,
+    ``surface_potential`` and the SI options of :func:`polypack.brownian`; ``docs/brownian.md``).
+    ``"deposit"``: 2D sequential deposition (``[psd] dim = 2``; ``width``, ``boundary``,
+    ``order``, ``tolerance``; ``docs/deposition.md``).
 ``[analysis.rdf]``
     ``r_max`` (> 0, user length units), ``dr`` (> 0), ``method``, ``scale``.
 ``[analysis.kfunction]``
@@ -84,6 +88,11 @@ prints it with every type, bound, default and doc). The built-ins:
 ``[analysis.elastic]``
     exact elastic tensor of the bonded network (``docs/mechanics.md``): ``bonds``, ``epsilon``,
     ``normal_stiffness``, ``shear_stiffness``, ``rotations``, ``radius``, ``solver``.
+``[analysis.shear]``
+    oscillatory shear test by bonded DEM (``docs/dem.md``): the bond options of
+    ``[analysis.elastic]`` and those of :func:`polypack.mechanics.oscillatory_shear`.
+``[analysis.deposit]``
+    window statistics of a 2D deposit: ``margin``, ``contact_tolerance``, ``n_bins``.
 ``[analysis.moduli]``
     effective moduli of the composite (``docs/moduli.md``): ``matrix`` and ``inclusions``
     (``[E, nu]``, required), ``three_point``, ``mefm``.

@@ -46,6 +46,13 @@ class PoresOptions:
     n_grid: int = option(None, v.int_min(10), "points of the survival-function grid")
 
 
+@dataclass(frozen=True)
+class DepositOptions:
+    margin: float = option(None, v.non_negative, "distance excluded from floor, walls and free surface (8 d_max)")
+    contact_tolerance: float = option(None, v.non_negative, "relative gap below which two disks touch (1e-9)")
+    n_bins: int = option(None, v.int_min(1), "height bins of the profiles (40)")
+
+
 def run_rdf(packing, opts, seed):
     import polypack.analysis as pa
 
@@ -84,6 +91,17 @@ def run_pores(packing, opts, seed):
     return pa.PoreSizes(n_points=opts["n_points"], seed=seed, **kw).compute(packing)
 
 
+def run_deposit(packing, opts, seed):
+    """Window statistics of a 2D deposit, with its height profiles as top-level curves."""
+    import polypack.analysis as pa
+
+    est = pa.DepositStatistics(**opts).compute(packing)
+    d = est.to_dict()
+    prof = d.pop("profile")
+    d.update(height=prof["height"], fraction=prof["fraction"], mean_diameter=prof["mean_diameter"])
+    return d
+
+
 def check_r_max(opts, info, path):
     """``r_max`` beyond half the box (known before packing from N and c) is an error at once."""
     from ..errors import InvalidInputError
@@ -119,3 +137,9 @@ register("analysis", "pores", PoresOptions, run_pores,
                                                   plot=("survival",))),
          doc="pore-size distribution and degree of heterogeneity, Eq. (6) of 003_873b69fc71c74cf6.txt", requires=(_A + "PoreSizes",),
          kernels=("polypack._kernels.cells", "polypack._kernels.analysis"))
+register("analysis", "deposit", DepositOptions, run_deposit,
+         Outputs(scalars=("packing_fraction", "packing_fraction_err", "coordination"), flatten=("contact_shares",),
+                 curves=Curves("height", "height above the floor y (user length units)",
+                               "packing fraction of the strip", plot=("fraction",))),
+         doc="packing fraction, coordination and height profiles of a 2D deposit in a bulk window (§2.4 of "
+             "001_ad5bae0acea940c4.txt)", requires=(_A + "DepositStatistics",))

@@ -57,5 +57,6 @@ register(
     Outputs(scalars=("volume_fraction", "zeta2", "eta2"), flatten=MODULI_ESTIMATES),
     doc="effective moduli of the composite (MT, SC, HS, three-point bounds, MEFM), §4 of 000_2cedc098acbd866b.txt",
     requires=("polypack.mechanics:mori_tanaka", "polypack.analysis:ThreePointParameters"),
+    preflight="polypack.mechanics.stages:preflight_3d",
     kernels=("polypack._kernels.cells", "polypack._kernels.analysis", "polypack._kernels.threepoint"),
 )

@@ -169,26 +169,35 @@ def preflight(study_data, seed_rec):
     _check_analysis_options(study_data.get("analysis", {}))
     s_sizes, _, _ = stage_seeds(seed_rec)
     sizes = make_sizes(study_data["psd"], s_sizes)
-    vf = study_data["protocol"]["volume_fraction"]
+    vf = study_data["protocol"].get("volume_fraction")
     r = np.asarray(sizes.radii, dtype=np.float64)
-    if isinstance(vf, str):
-        return
-    if np.ptp(r) == 0 and vf > _KEPLER:
-        raise InvalidInputError(
-            f"protocol.volume_fraction = {vf!r}: equal spheres cannot exceed {_KEPLER:.4f} (the FCC density); "
-            "random packs of equal spheres jam near 0.64"
-        )
-    half = 0.5 * (unit_ball_volume(3) * float(np.sum(r**3)) / vf) ** (1.0 / 3.0)
-    if 2.0 * float(r.max()) > 0.98 * half:
-        raise InvalidInputError(
-            f"protocol.volume_fraction = {vf!r}: the largest sphere (diameter {2 * float(r.max()):.4g}) would exceed "
-            f"half the periodic box ({half:.4g}) of N={r.size}; use more particles (psd.n) or a smaller size ratio"
-        )
-    info = {"n": int(r.size), "volume_fraction": vf, "half_box": half}
+    pcap = _protocol(study_data)
+    if pcap.preflight is not None:  # the protocol's own checks on the sizes (one size, 2D, ...)
+        registry._load(pcap.preflight)(
+            {k: v for k, v in study_data["protocol"].items() if k != "kind"},
+            {"n": int(r.size), "radii": r, "dim": int(getattr(sizes, "dim", 3)), "volume_fraction": vf}, "protocol")
+    dim = int(getattr(sizes, "dim", 3))
+    half = None
+    if vf is not None and not isinstance(vf, str):  # not "jammed", nor a protocol without a fraction (deposit)
+        if np.ptp(r) == 0 and vf > _KEPLER:
+            raise InvalidInputError(
+                f"protocol.volume_fraction = {vf!r}: equal spheres cannot exceed {_KEPLER:.4f} (the FCC density); "
+                "random packs of equal spheres jam near 0.64"
+            )
+        half = 0.5 * (unit_ball_volume(3) * float(np.sum(r**3)) / vf) ** (1.0 / 3.0)
+        if 2.0 * float(r.max()) > 0.98 * half:
+            raise InvalidInputError(
+                f"protocol.volume_fraction = {vf!r}: the largest sphere (diameter {2 * float(r.max()):.4g}) would "
+                f"exceed half the periodic box ({half:.4g}) of N={r.size}; use more particles (psd.n) or a smaller "
+                "size ratio"
+            )
+    info = {"n": int(r.size), "volume_fraction": vf, "half_box": half, "dim": dim}
     for name in sorted(study_data.get("analysis", {})):
         cap = registry.get("analysis", name)
         if cap.preflight is not None:
             registry._load(cap.preflight)(study_data["analysis"][name], info, f"analysis.{name}")
+    if half is None:
+        return
     win = study_data.get("analysis", {}).get("windows")
     if win:
         species = np.asarray(getattr(sizes, "species", None) if getattr(sizes, "species", None) is not None
@@ -264,8 +273,8 @@ def protocol_stats(meta: dict) -> dict:
     """Scalar run statistics of the protocol for the summary table.
 
     Top-level ``meta`` scalars (the packer's: status, collisions, reduced pressure ...)
-    keep their names; ``meta["shake"]`` and ``meta["scrm"]`` scalars get a ``shake.`` /
-    ``scrm.`` prefix; per-shake histories give their last row per species
+    keep their names; ``meta["shake"]``, ``meta["scrm"]`` and ``meta["brownian"]`` scalars get a
+    ``shake.`` / ``scrm.`` / ``brownian.`` prefix; per-shake histories give their last row per species
     (``shake.acceptance_rate.0``), the contact-value monitor its last value per pair.
     """
     out = {}
@@ -273,7 +282,7 @@ def protocol_stats(meta: dict) -> dict:
         if k in ("seed", "history") or isinstance(v, (list, dict, tuple, np.ndarray)):
             continue
         out[k] = _jsonable(v)
-    for sub in ("shake", "scrm"):
+    for sub in ("shake", "scrm", "brownian"):
         d = meta.get(sub)
         if not isinstance(d, dict):
             continue

@@ -4,6 +4,10 @@
           ``global_shakes`` global shakes with :func:`polypack.shake` if M > 0.
 ``scrm``  SCRM: CRM growth interleaved with shaking (:func:`polypack.scrm`, §3.2 of
           000_2cedc098acbd866b.txt), then ``global_shakes`` global shakes.
+``brownian``  a colloidal gel by Brownian dynamics with DLVO forces (:func:`polypack.brownian`,
+          §2.2 of 003_873b69fc71c74cf6.txt); run functions in :mod:`polypack.generate.protocols`.
+``deposit``  2D sequential deposition of disks (:func:`polypack.deposit`, §2.4 of
+          001_ad5bae0acea940c4.txt).
 
 An option a protocol does not use is an error in a study (``protocol.max_seconds: not
 used with protocol.kind = "scrm"``), never silently dropped.
@@ -170,3 +174,57 @@ register("protocol", "vem", VEMOptions, run_vem, Outputs(),
          requires=("polypack.generate:vem",), check=check_vem,
          kernels=("polypack._kernels.cells", "polypack._kernels.edmd", "polypack._kernels.contacts",
                   "polypack._kernels.dem", "polypack._kernels.vem"))
+
+
+@dataclass(frozen=True)
+class BrownianOptions:
+    """``[protocol] kind = "brownian"``: the options of :func:`polypack.brownian` (SI units).
+
+    N comes from ``[psd]`` (one size); the gel is scaled to the ``[psd]`` radius
+    (:mod:`polypack.generate.protocols`). Unset options take the defaults of
+    :data:`polypack.generate.dlvo.DLVO_DEFAULTS` and :func:`polypack.brownian`.
+    """
+
+    volume_fraction: float = option(0.4, v.fraction_open, "volume fraction Φ in (0, 0.55] (seed 003: 0.4)")
+    surface_potential: float = option(0.015, v.number, "surface potential Ψ0, V (seed 003: 0, 0.012 ... 0.015)", unit="V")
+    radius: float = option(None, v.positive, "physical sphere radius a of the simulation, m (0.25 µm)", unit="m")
+    temperature: float = option(None, v.positive, "temperature, K", unit="K")
+    viscosity: float = option(None, v.positive, "solvent viscosity, Pa s", unit="Pa s")
+    relative_permittivity: float = option(None, v.positive, "relative permittivity of the solvent")
+    hamaker: float = option(None, v.positive, "Hamaker constant, J", unit="J")
+    ionic_strength: float = option(None, v.positive, "ionic strength, mol/m³ (or give debye_length)", unit="mol/m³")
+    debye_length: float = option(None, v.positive, "Debye length 1/κ, m", unit="m")
+    minimum_separation: float = option(None, v.positive, "surface separation of the primary minimum, m", unit="m")
+    model: str = option(None, v.choice("auto", "hhf", "lsa"), "double-layer model (auto: HHF for κa >= 5, else LSA)")
+    time_step: float = option(None, v.positive, "time step, s (default: rms step 0.2 Debye lengths)", unit="s")
+    bond_width: float = option(None, v.positive, "capture separation and bond shell width, m (1 nm)", unit="m")
+    cutoff: float = option(None, v.positive, "centre-distance cutoff of the DLVO force, m (2.5 a)", unit="m")
+    record_interval: float = option(None, v.positive, "simulated seconds between records (0.05 a²/D0)", unit="s")
+    stable_window: float = option(None, v.positive, "seconds over which the structure must be stable (2 a²/D0)",
+                                  unit="s")
+    coordination_tolerance: float = option(None, v.positive, "relative change of coordination allowed over the window")
+    cluster_tolerance: float = option(None, v.positive, "change of the largest-cluster fraction allowed over the window")
+    min_time: float = option(None, v.non_negative, "shortest simulated time, s (stable_window)", unit="s")
+    max_time: float = option(None, v.positive, "simulated-time budget, s (60 a²/D0)", unit="s")
+    max_steps: int = option(None, v.int_min(1), "step budget")
+
+
+@dataclass(frozen=True)
+class DepositOptions:
+    """``[protocol] kind = "deposit"``: the options of :func:`polypack.deposit` (``[psd] dim = 2``)."""
+
+    width: float = option(None, v.positive, "box width W (default: a roughly square deposit)")
+    boundary: str = option("periodic", v.choice("periodic", "walls"), "x axis periodic or side walls")
+    order: str = option("random", v.choice("random", "given"), "deposition order: random (from the seed) or as sized")
+    tolerance: float = option(None, v.positive, "relative tolerance of contacts and ties (<= 1e-3)")
+
+
+_P = "polypack.generate.protocols:"
+register("protocol", "brownian", BrownianOptions, _P + "run_brownian", Outputs(),
+         doc="colloidal gel by Brownian dynamics with DLVO forces, §2.2 of 003_873b69fc71c74cf6.txt",
+         requires=("polypack.generate:brownian",), check=_P + "check_brownian", preflight=_P + "preflight_brownian",
+         kernels=("polypack._kernels.bd",))
+register("protocol", "deposit", DepositOptions, _P + "run_deposit", Outputs(),
+         doc="2D sequential deposition of disks (potential minimisation), §2.4 of 001_ad5bae0acea940c4.txt",
+         requires=("polypack.generate:deposit",), preflight=_P + "preflight_deposit",
+         kernels=("polypack._kernels.deposit",))

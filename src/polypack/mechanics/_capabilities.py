@@ -1,7 +1,7 @@
-"""Registry declarations of the mechanics stages (``[analysis.elastic]``, ...).
+"""Registry declarations of the mechanics stages (``[analysis.elastic]``, ``[analysis.shear]``).
 
 The code lives in :mod:`polypack.mechanics.stages`; the summary scalars of each stage are
-listed here (names ``elastic.<key>`` in ``summary.csv`` and ``ensemble/scalars.json``;
+listed here (names ``elastic.<key>`` / ``shear.<key>`` in ``summary.csv`` and ``ensemble/scalars.json``;
 documented in ``docs/mechanics.md``, "Study stages").
 """
 
@@ -59,6 +59,74 @@ register(
     "analysis", "elastic", ElasticOptions, "polypack.mechanics.stages:run_elastic",
     Outputs(scalars=ELASTIC_SCALARS, flatten=("shear_moduli",)),
     doc="exact elastic tensor of the bonded network (static limit of the shear test of 003_873b69fc71c74cf6.txt §2.4)",
-    requires=("polypack.mechanics:elastic_tensor",),
+    requires=("polypack.mechanics:elastic_tensor",), preflight="polypack.mechanics.stages:preflight_3d",
     kernels=("polypack._kernels.cells", "polypack._kernels.network"),
+)
+
+
+def _directions(x):
+    """``6`` (or ``"all"``): the seed's six directions; else an array of [plate-normal axis, shear axis] pairs."""
+    if x == 6 or x == "all":
+        return 6
+    if not isinstance(x, (list, tuple)) or not x:
+        raise v.Bad('expected 6 (all six), "all", or pairs such as [[2, 0]] (plate normal z, sheared along x)')
+    out = []
+    for p in x:
+        if (not isinstance(p, (list, tuple)) or len(p) != 2
+                or not all(isinstance(e, int) and not isinstance(e, bool) and 0 <= e <= 2 for e in p) or p[0] == p[1]):
+            raise v.Bad(f"pair {p!r}: give [plate-normal axis, shear axis], two different axes of 0, 1, 2")
+        out.append([int(p[0]), int(p[1])])
+    return out
+
+
+_directions.describe = '6, "all" or an array of [normal, shear] axis pairs'
+
+
+@dataclass(frozen=True)
+class ShearOptions:
+    bonds: str = _B["bonds"]
+    epsilon: float = _B["epsilon"]
+    normal_stiffness: float = _B["normal_stiffness"]
+    shear_stiffness: float = _B["shear_stiffness"]
+    normal_strength: float = option(None, v.positive, "bond normal strength F_nB (1e-4 N, seed 003 Table 1)", unit="N")
+    shear_strength: float = option(None, v.positive, "bond shear strength F_sB (1e-6 N)", unit="N")
+    reference: str = option(None, v.choice("stress-free", "zero-gap"), "bond rest length: current ('stress-free') "
+                                                                         "or r_i + r_j ('zero-gap', relaxed first)")
+    radius: float = option(0.25e-6, v.non_negative, "mean radius the lengths are rescaled to, m (stresses in Pa); "
+                                                    "0 keeps the pack's length unit", unit="m")
+    boundary: str = option(None, v.choice("lees-edwards", "plates"), "Lees-Edwards cell or the seed's plates")
+    directions: list = option(None, _directions, "6 (the seed's six) or [[normal, shear], ...] axis pairs")
+    frequency: float = option(None, v.positive, "drive frequency f (1 Hz)", unit="Hz")
+    amplitude: float = option(None, v.positive, "peak shear strain (1e-3: 0.1 % of the box)")
+    cycles: int = option(None, v.int_min(1), "oscillation cycles per direction (10)")
+    ramp_cycles: int = option(None, v.int_min(0), "cycles of the amplitude ramp (default: all)")
+    discard_cycles: int = option(None, v.int_min(0), "cycles left out of the fit (1)")
+    steps_per_cycle: int = option(None, v.int_min(10), "time steps per cycle (4000; the masses are scaled to it)")
+    samples_per_cycle: int = option(None, v.int_min(4), "stress samples per cycle (100)")
+    safety: float = option(None, v.fraction_closed, "time step over the critical step when scaling masses (0.5)")
+    mass_scale: float = option(None, v.positive, "fixed density scale factor (default: chosen from steps_per_cycle)")
+    damping: float = option(None, v.fraction_closed, "local damping coefficient alpha (0.9)")
+    friction: float = option(None, v.non_negative, "friction coefficient of unbonded contacts (0)")
+    density: float = option(None, v.positive, "particle density before mass scaling (3690 kg/m³)", unit="kg/m³")
+    relax_first: bool = option(None, v.boolean, "relax before shearing (default: when the network is prestressed)")
+    layers: int = option(None, v.int_min(1), "plate thickness in mean diameters (plates; 3)")
+    measurement_layers: int = option(None, v.int_min(1), "stress-measurement slabs across the sample (plates; 5)")
+
+
+#: Summary scalars of ``[analysis.shear]`` (``shear.<key>``; per direction ``shear.direction.<g>-<a>.<key>``).
+SHEAR_SCALARS = (
+    "storage_modulus", "loss_modulus",          # G', G'': means over the directions run
+    "storage_modulus_sd", "loss_modulus_sd",    # their standard deviations over the directions (seed Table 2)
+    "complex_modulus", "phase_angle",           # |G*| and the phase angle delta (rad), means over directions
+    "storage_modulus_MPa", "loss_modulus_MPa",
+    "breakages", "n_bonds", "coordination",
+    "time_step", "mass_scale", "steps_per_cycle", "inertial_error",
+)
+
+register(
+    "analysis", "shear", ShearOptions, "polypack.mechanics.stages:run_shear",
+    Outputs(scalars=SHEAR_SCALARS, flatten=("direction",)),
+    doc="oscillatory shear test by bonded DEM: G', G'' (§2.4 of 003_873b69fc71c74cf6.txt)",
+    requires=("polypack.mechanics:oscillatory_shear",), preflight="polypack.mechanics.stages:preflight_3d",
+    kernels=("polypack._kernels.cells", "polypack._kernels.network", "polypack._kernels.contacts", "polypack._kernels.dem"),
 )

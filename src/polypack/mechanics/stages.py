@@ -30,7 +30,7 @@ import numpy as np
 
 from ..errors import InfeasibleError, InvalidInputError
 
-__all__ = ["network_of", "run_elastic", "BOND_RULES"]
+__all__ = ["network_of", "run_elastic", "run_shear", "preflight_3d", "BOND_RULES", "SHEAR_KEYS"]
 
 BOND_RULES = ("auto", "distance", "protocol")
 
@@ -68,6 +68,14 @@ def network_of(packing, opts, path="analysis.elastic", **strengths):
     return BondNetwork.from_packing(packing, epsilon=opts.get("epsilon", 0.01), **kw), "distance"
 
 
+def preflight_3d(opts, info, path):
+    """Before a study runs: the exact tensor and the DEM need 3D spheres (``[psd] dim = 3``)."""
+    dim = info.get("dim", 3)
+    if dim != 3:
+        raise InvalidInputError(f"{path}: needs 3D spheres in a periodic box; this study's sizes are for dim={dim} "
+                                "([psd] dim)")
+
+
 def _prefixed(path, fn, *args, **kw):
     """Run ``fn``; its one-line InvalidInputError/InfeasibleError gets the stage's key path."""
     try:
@@ -102,4 +110,57 @@ def run_elastic(packing, opts, seed):
            "normal_stiffness": kn, "shear_stiffness": ks,
            "radius_m": radius if radius > 0 else None}
     out.update(et.to_dict())
+    return out
+
+
+def _scaled(packing, radius):
+    """The pack with lengths rescaled so that its mean radius is ``radius`` (None: unchanged); ``(pack, s)``."""
+    if not radius:
+        return packing, 1.0
+    from ..packing import Packing
+
+    s = float(radius) / float(np.mean(packing.radii))
+    return Packing(np.asarray(packing.positions) * s, np.asarray(packing.radii) * s, np.asarray(packing.box) * s,
+                   species=packing.species, meta=dict(packing.meta), periodic=packing.periodic), s
+
+
+#: ``[analysis.shear]`` keys passed to :func:`polypack.mechanics.oscillatory_shear`.
+SHEAR_KEYS = ("frequency", "amplitude", "cycles", "boundary", "ramp_cycles", "discard_cycles", "steps_per_cycle",
+              "samples_per_cycle", "safety", "mass_scale", "damping", "friction", "density", "relax_first", "layers",
+              "measurement_layers")
+
+
+def run_shear(packing, opts, seed):
+    """``[analysis.shear]``: the seed's oscillatory shear test (DEM) of the realized pack's bonded network.
+
+    :func:`polypack.mechanics.oscillatory_shear` (§2.4 of 003_873b69fc71c74cf6.txt: G′ and
+    G″ from a least-squares fit over whole cycles, per direction and their mean) on the
+    network of :func:`network_of`, with lengths rescaled so that the mean radius is
+    ``radius`` (default 0.25 µm, seed 003 Table 1: stresses in Pa).  Returns the
+    result's ``to_dict()`` (no time series) plus ``direction`` (a table ``"g-a" ->
+    {storage_modulus, loss_modulus, phase_angle, breakages}`` for the summary), the bond
+    rule and the network's coordination.  ``seed`` is unused (the protocol is
+    deterministic).
+    """
+    from .dem import oscillatory_shear
+
+    path = "analysis.shear"
+    radius = opts.get("radius", 0.25e-6)
+    pk, _ = _scaled(packing, radius)
+    strengths = {k: opts[k] for k in ("normal_strength", "shear_strength", "reference") if k in opts}
+    net, rule = _prefixed(path, network_of, pk, opts, path, **strengths)
+    kw = {k: opts[k] for k in SHEAR_KEYS if k in opts}
+    d = opts.get("directions", 6)
+    kw["directions"] = d if d == 6 else [tuple(p) for p in d]
+    res = _prefixed(path, oscillatory_shear, net, progress=False, **kw)
+    out = {"estimator": "ShearResult", "bonds": rule, "n_bonds": net.n_bonds, "coordination": net.coordination,
+           "radius_m": radius if radius else None}
+    out.update(res.to_dict(series=False))
+    out["direction"] = {f"{r['normal']}-{r['shear']}": {k: r[k] for k in ("storage_modulus", "loss_modulus",
+                                                                          "phase_angle", "breakages")}
+                        for r in res.per_direction}
+    out["breakages"] = int(sum(r["breakages"] for r in res.per_direction))
+    if radius:
+        out["storage_modulus_MPa"] = res.storage_modulus * 1e-6
+        out["loss_modulus_MPa"] = res.loss_modulus * 1e-6
     return out
