@@ -123,7 +123,8 @@ def _gel(n=300, psi=0.0, seed=1, **kw):
 
 
 def test_gel_bonds_series_and_no_overlap():
-    pk = _gel(300, 0.0, seed=2, stable_window=5e-3, max_time=0.05)
+    """Flexible (central) bonds; the rigid model is tested in test_brownian_rigid.py."""
+    pk = _gel(300, 0.0, seed=2, stable_window=5e-3, max_time=0.05, bonds="flexible")
     b = pk.meta["brownian"]
     a = 0.25e-6
     assert pk.n == 300 and np.allclose(pk.radii, a)
@@ -157,7 +158,7 @@ def test_gel_bonds_series_and_no_overlap():
     np.testing.assert_allclose(net.length, np.linalg.norm(branch, axis=1), rtol=1e-12)
     assert net.coordination == pytest.approx(b["coordination"])
     # reproducible bit for bit
-    pk2 = _gel(300, 0.0, seed=2, stable_window=5e-3, max_time=0.05)
+    pk2 = _gel(300, 0.0, seed=2, stable_window=5e-3, max_time=0.05, bonds="flexible")
     assert np.array_equal(pk.positions, pk2.positions)
 
 

@@ -27,6 +27,8 @@ def register(app: typer.Typer) -> None:
                                                        help="1:1 salt in mol/m³ (= mM)."),
         debye_length: Optional[float] = typer.Option(None, "--debye-length", help="Debye length in m."),
         model: str = typer.Option("auto", "--model", help="Double layer: auto, hhf or lsa."),
+        bonds: str = typer.Option("flexible", "--bonds",
+                                  help="Bond model: rigid (clusters move as rigid bodies) or flexible (free rolling)."),
         time_step: Optional[float] = typer.Option(None, "--time-step", help="Time step in s."),
         max_time: Optional[float] = typer.Option(None, "--max-time", help="Simulated-time budget in s."),
         max_steps: Optional[int] = typer.Option(None, "--max-steps", help="Step budget."),
@@ -49,6 +51,7 @@ def register(app: typer.Typer) -> None:
                 n, volume_fraction, surface_potential * 1e-3, seed=seed, radius=radius, temperature=temperature,
                 viscosity=viscosity, hamaker=hamaker, ionic_strength=ionic_strength, debye_length=debye_length,
                 model=model, time_step=time_step, max_time=max_time, max_steps=max_steps, progress=progress,
+                bonds=bonds,
             )
         io.write(str(output), pk)
         bonds_path = Path(str(output) + ".bonds.json")
@@ -56,7 +59,8 @@ def register(app: typer.Typer) -> None:
             Path(tmp).write_text(json.dumps(pk.meta["bonds"]))
         b = pk.meta["brownian"]
         typer.echo(
-            f"wrote {output}: {pk.n} spheres, Ψ0 = {surface_potential:g} mV, {b['steps']} steps, "
+            f"wrote {output}: {pk.n} spheres, Ψ0 = {surface_potential:g} mV, {b['bonds']} bonds, "
+            f"{b['steps']} steps, "
             f"t = {b['simulated_time'] * 1e3:.3g} ms ({b['simulated_time'] / b['brownian_time']:.3g} a²/D0), "
             f"coordination {b['coordination']:.3f}, {b['clusters']} clusters (largest {b['largest_cluster']}), "
             f"percolating {''.join('xyz'[k] for k in range(3) if b['percolating'][k]) or 'no'}, "

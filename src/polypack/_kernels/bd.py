@@ -26,6 +26,9 @@ with ``F`` the total force in units of ``kT/a``, followed by constraint projecti
   used to finish a gel whose bond shells cannot all be satisfied at once.
 * Optional harmonic trap ``-P_TRAP_K (x - L/2)`` per coordinate (validation).
 
+* :func:`run_rigid`: the same forces, but bonded clusters are rigid bodies
+  (Brownian cluster dynamics with free-draining friction; see its docstring).
+
 ``P_R_CUT <= 0`` means independent spheres (no list is built).  Neighbours come from
 a Verlet list (centre distance ``P_R_CUT + P_SKIN``) built by
 :func:`polypack._kernels.cells.pairs_within` and rebuilt when a sphere has moved more
@@ -471,3 +474,407 @@ def warmup():
     cluster_labels(8, bonds, istate[I_NBONDS])
     wrapping_axes(pos, box, bonds, istate[I_NBONDS])
     fill_normals(rng_state, state, np.empty(4))
+
+
+# ----------------------------------------------------------------------------------------
+# Rigid bonds: Brownian cluster dynamics
+# ----------------------------------------------------------------------------------------
+#
+# Cluster state (flat int64/uint8 arrays of length N, kept by the caller between calls):
+#   lab[i]    label of the cluster of sphere i (the index of one member, the cluster's root)
+#   nxt[i]    next member of the same cluster (-1 ends the list)
+#   head[c], tail[c], csize[c]   first/last member and size of the cluster labelled c
+#   frozen[c] 1 if cluster c wraps the periodic box (bonded to its own image): immobile
+# Positions inside a cluster are kept mutually unwrapped: the bond vector of i-j is the
+# plain difference x[j] - x[i] (a merge shifts the smaller cluster by a box vector).
+# A sphere has rotational friction 8 pi eta a^3 = (4/3) zeta a^2 (reduced: 4/3).
+
+SPHERE_ROT_FRICTION = 4.0 / 3.0
+
+
+@njit(cache=True)
+def init_clusters(n, lab, nxt, head, tail, csize, frozen):
+    """Every sphere its own cluster."""
+    for i in range(n):
+        lab[i] = i
+        nxt[i] = -1
+        head[i] = i
+        tail[i] = i
+        csize[i] = 1
+        frozen[i] = 0
+
+
+@njit(cache=True)
+def _translate_cluster(pos, c, head, nxt, sx, sy, sz):
+    m = head[c]
+    while m >= 0:
+        pos[m, 0] += sx
+        pos[m, 1] += sy
+        pos[m, 2] += sz
+        m = nxt[m]
+
+
+@njit(cache=True)
+def _merge(pos, box, i, j, lab, nxt, head, tail, csize, frozen):
+    """Merge the clusters of i and j (bond i-j at its minimum image); the smaller is shifted."""
+    ci = lab[i]
+    cj = lab[j]
+    # keep the larger label; shift the smaller cluster by a box vector so that the bond
+    # vector becomes the minimum-image one
+    if csize[ci] >= csize[cj]:
+        keep, move, a, b = ci, cj, i, j
+    else:
+        keep, move, a, b = cj, ci, j, i
+    sx = min_image(pos[b, 0] - pos[a, 0], box[0]) - (pos[b, 0] - pos[a, 0])
+    sy = min_image(pos[b, 1] - pos[a, 1], box[1]) - (pos[b, 1] - pos[a, 1])
+    sz = min_image(pos[b, 2] - pos[a, 2], box[2]) - (pos[b, 2] - pos[a, 2])
+    sx = box[0] * np.round(sx / box[0])
+    sy = box[1] * np.round(sy / box[1])
+    sz = box[2] * np.round(sz / box[2])
+    m = head[move]
+    while m >= 0:
+        pos[m, 0] += sx
+        pos[m, 1] += sy
+        pos[m, 2] += sz
+        lab[m] = keep
+        m = nxt[m]
+    nxt[tail[keep]] = head[move]
+    tail[keep] = tail[move]
+    csize[keep] += csize[move]
+    if frozen[move]:
+        frozen[keep] = 1
+    head[move] = -1
+    tail[move] = -1
+    csize[move] = 0
+    frozen[move] = 0
+
+
+@njit(cache=True)
+def _internal(pos, box, i, j, lab):
+    """True if i and j are in one cluster and see each other at their stored (unwrapped) image."""
+    if lab[i] != lab[j]:
+        return False
+    for c in range(3):
+        d = pos[j, c] - pos[i, c]
+        if abs(d - min_image(d, box[c])) > 0.5 * box[c]:
+            return False
+    return True
+
+
+@njit(cache=True)
+def _rigid_overlaps(pos, box, params, state, istate, pi, pj, lab, head, nxt, csize, frozen):
+    """Remove overlaps between different clusters by rigid translations (mobility 1/n)."""
+    sweeps = int(params[P_SWEEPS])
+    tol = params[P_PROJ_TOL]
+    worst = 0.0
+    for _sweep in range(sweeps):
+        worst = 0.0
+        for k in range(pi.shape[0]):
+            i = pi[k]
+            j = pj[k]
+            dx = min_image(pos[j, 0] - pos[i, 0], box[0])
+            dy = min_image(pos[j, 1] - pos[i, 1], box[1])
+            dz = min_image(pos[j, 2] - pos[i, 2], box[2])
+            r2 = dx * dx + dy * dy + dz * dz
+            if r2 >= 4.0:
+                continue
+            ci = lab[i]
+            cj = lab[j]
+            r = np.sqrt(r2)
+            corr = 2.0 - r
+            if ci == cj:  # a cluster touching its own image (or an internal overlap): not movable
+                if corr > worst:
+                    worst = corr
+                continue
+            wi = 0.0 if frozen[ci] else 1.0 / csize[ci]
+            wj = 0.0 if frozen[cj] else 1.0 / csize[cj]
+            if wi + wj == 0.0:
+                if corr > worst:
+                    worst = corr
+                continue
+            if corr > worst:
+                worst = corr
+            s = corr / (max(r, 1e-12) * (wi + wj))
+            if wi > 0.0:
+                _translate_cluster(pos, ci, head, nxt, -s * wi * dx, -s * wi * dy, -s * wi * dz)
+            if wj > 0.0:
+                _translate_cluster(pos, cj, head, nxt, s * wj * dx, s * wj * dy, s * wj * dz)
+        istate[I_SWEEPS] += 1
+        if worst <= tol:
+            break
+    if worst > state[S_MAX_RESIDUAL]:
+        state[S_MAX_RESIDUAL] = worst
+
+
+@njit(cache=True)
+def _rigid_capture(pos, box, params, istate, pi, pj, flag, bonds, adj, deg, lab, nxt, head, tail, csize,
+                   frozen):
+    """Bond every unbonded pair closer than the bond width; merge clusters; flag wrapping."""
+    cap_lim = 2.0 + params[P_BOND_WIDTH]
+    nb = istate[I_NBONDS]
+    maxdeg = adj.shape[1]
+    cap = bonds.shape[0]
+    for k in range(pi.shape[0]):
+        if flag[k]:
+            continue
+        i = pi[k]
+        j = pj[k]
+        dx = min_image(pos[j, 0] - pos[i, 0], box[0])
+        dy = min_image(pos[j, 1] - pos[i, 1], box[1])
+        dz = min_image(pos[j, 2] - pos[i, 2], box[2])
+        if dx * dx + dy * dy + dz * dz >= cap_lim * cap_lim:
+            continue
+        if nb >= cap:
+            istate[I_NBONDS] = nb
+            return Status.BOND_CAPACITY
+        if deg[i] >= maxdeg or deg[j] >= maxdeg:
+            istate[I_NBONDS] = nb
+            return Status.PARTICLE_BONDS
+        bonds[nb, 0] = i
+        bonds[nb, 1] = j
+        nb += 1
+        adj[i, deg[i]] = j
+        deg[i] += 1
+        adj[j, deg[j]] = i
+        deg[j] += 1
+        flag[k] = 1
+        if lab[i] != lab[j]:
+            _merge(pos, box, i, j, lab, nxt, head, tail, csize, frozen)
+        elif not _internal(pos, box, i, j, lab):
+            frozen[lab[i]] = 1  # bonded to its own periodic image: the cluster spans the box
+    istate[I_NBONDS] = nb
+    return Status.OK
+
+
+@njit(cache=True)
+def _rotation(tx, ty, tz, out):
+    """Rotation matrix of the rotation vector (tx, ty, tz) (Rodrigues), written to ``out`` (3, 3)."""
+    th = np.sqrt(tx * tx + ty * ty + tz * tz)
+    if th < 1e-300:
+        for p in range(3):
+            for q in range(3):
+                out[p, q] = 1.0 if p == q else 0.0
+        return
+    kx = tx / th
+    ky = ty / th
+    kz = tz / th
+    c = np.cos(th)
+    s = np.sin(th)
+    v = 1.0 - c
+    out[0, 0] = c + kx * kx * v
+    out[0, 1] = kx * ky * v - kz * s
+    out[0, 2] = kx * kz * v + ky * s
+    out[1, 0] = ky * kx * v + kz * s
+    out[1, 1] = c + ky * ky * v
+    out[1, 2] = ky * kz * v - kx * s
+    out[2, 0] = kz * kx * v - ky * s
+    out[2, 1] = kz * ky * v + kx * s
+    out[2, 2] = c + kz * kz * v
+
+
+@njit(cache=True)
+def _move_clusters(pos, params, state, force, rng, lab, nxt, head, csize, frozen):
+    """One free-draining rigid-body Brownian step of every mobile cluster."""
+    n = pos.shape[0]
+    dt = params[P_DT]
+    noise = params[P_NOISE]
+    xi = np.zeros((3, 3))
+    rot = np.zeros((3, 3))
+    for c in range(n):
+        if lab[c] != c or head[c] < 0 or frozen[c]:
+            continue
+        m = csize[c]
+        if m == 1:
+            for q in range(3):
+                x = pos[c, q] + force[c, q] * dt
+                if noise != 0.0:
+                    x += noise * next_normal(rng, state)
+                pos[c, q] = x
+            continue
+        # centre, total force, torque, friction tensor (units zeta = 1)
+        rx = 0.0
+        ry = 0.0
+        rz = 0.0
+        i = head[c]
+        while i >= 0:
+            rx += pos[i, 0]
+            ry += pos[i, 1]
+            rz += pos[i, 2]
+            i = nxt[i]
+        rx /= m
+        ry /= m
+        rz /= m
+        fx = 0.0
+        fy = 0.0
+        fz = 0.0
+        tqx = 0.0
+        tqy = 0.0
+        tqz = 0.0
+        for p in range(3):
+            for q in range(3):
+                xi[p, q] = SPHERE_ROT_FRICTION * m if p == q else 0.0
+        i = head[c]
+        while i >= 0:
+            ux = pos[i, 0] - rx
+            uy = pos[i, 1] - ry
+            uz = pos[i, 2] - rz
+            gx = force[i, 0]
+            gy = force[i, 1]
+            gz = force[i, 2]
+            fx += gx
+            fy += gy
+            fz += gz
+            tqx += uy * gz - uz * gy
+            tqy += uz * gx - ux * gz
+            tqz += ux * gy - uy * gx
+            u2 = ux * ux + uy * uy + uz * uz
+            xi[0, 0] += u2 - ux * ux
+            xi[1, 1] += u2 - uy * uy
+            xi[2, 2] += u2 - uz * uz
+            xi[0, 1] -= ux * uy
+            xi[0, 2] -= ux * uz
+            xi[1, 2] -= uy * uz
+            i = nxt[i]
+        xi[1, 0] = xi[0, 1]
+        xi[2, 0] = xi[0, 2]
+        xi[2, 1] = xi[1, 2]
+        w, v = np.linalg.eigh(xi)
+        # translation: friction m, so drift F/m and noise sqrt(2 dt / m)
+        sm = 1.0 / np.sqrt(m)
+        dx = fx / m * dt
+        dy = fy / m * dt
+        dz = fz / m * dt
+        if noise != 0.0:
+            dx += noise * sm * next_normal(rng, state)
+            dy += noise * sm * next_normal(rng, state)
+            dz += noise * sm * next_normal(rng, state)
+        # rotation: dtheta = Xi^-1 T dt + sqrt(2 dt) Xi^-1/2 xi  (in the eigenbasis of Xi)
+        tx = 0.0
+        ty = 0.0
+        tz = 0.0
+        for e in range(3):
+            proj = v[0, e] * tqx + v[1, e] * tqy + v[2, e] * tqz
+            amp = proj / w[e] * dt
+            if noise != 0.0:
+                amp += noise / np.sqrt(w[e]) * next_normal(rng, state)
+            tx += amp * v[0, e]
+            ty += amp * v[1, e]
+            tz += amp * v[2, e]
+        _rotation(tx, ty, tz, rot)
+        i = head[c]
+        while i >= 0:
+            ux = pos[i, 0] - rx
+            uy = pos[i, 1] - ry
+            uz = pos[i, 2] - rz
+            pos[i, 0] = rx + dx + rot[0, 0] * ux + rot[0, 1] * uy + rot[0, 2] * uz
+            pos[i, 1] = ry + dy + rot[1, 0] * ux + rot[1, 1] * uy + rot[1, 2] * uz
+            pos[i, 2] = rz + dz + rot[2, 0] * ux + rot[2, 1] * uy + rot[2, 2] * uz
+            i = nxt[i]
+
+
+@njit(cache=True)
+def run_rigid(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rng, nsteps,
+              lab, nxt, head, tail, csize, frozen):
+    """Advance ``nsteps`` steps of Brownian cluster dynamics (rigid bonds) in place.
+
+    Arguments as :func:`run`, plus the cluster arrays (see :func:`init_clusters`).
+    Each step: DLVO forces of the unbonded pairs (pairs inside one rigid cluster are
+    skipped: their forces cancel in the cluster's force and torque); every mobile
+    cluster makes a free-draining rigid-body Ermak–McCammon step (translation with
+    friction ``n``, rotation with the friction tensor ``sum_i (|u_i|^2 I - u_i u_i^T)
+    + (4/3) n I`` about its centre, ``u_i`` = centre offsets, noise ``sqrt(2 dt)``
+    times the inverse square root of the friction); overlaps between different
+    clusters are removed by rigid translations weighted by the mobilities ``1/n``
+    (wrapping clusters are immobile); then every pair closer than the bond width is
+    bonded and the two clusters merge.  ``P_NOISE = 0`` and ``P_DT = 0`` give a pure
+    overlap removal and capture pass.
+    """
+    n = pos.shape[0]
+    dt = params[P_DT]
+    rc2 = params[P_R_CUT] * params[P_R_CUT]
+    half_skin2 = 0.25 * params[P_SKIN] * params[P_SKIN]
+    cap_drift = params[P_CAP_DRIFT]
+    lo = params[P_TAB_LO]
+    inv_dh = 1.0 / params[P_TAB_DH]
+    ntab = table.shape[0]
+    ktrap = params[P_TRAP_K]
+    cx = 0.5 * box[0]
+    cy = 0.5 * box[1]
+    cz = 0.5 * box[2]
+
+    pi, pj, flag = _build(pos, box, params, adj, deg, ncell)
+    ref = pos.copy()
+    force = np.zeros((n, 3), np.float64)
+    for _step in range(nsteps):
+        for i in range(n):
+            force[i, 0] = 0.0
+            force[i, 1] = 0.0
+            force[i, 2] = 0.0
+        vir = 0.0
+        for k in range(pi.shape[0]):
+            if flag[k]:
+                continue
+            i = pi[k]
+            j = pj[k]
+            if _internal(pos, box, i, j, lab):
+                continue
+            dx = min_image(pos[j, 0] - pos[i, 0], box[0])
+            dy = min_image(pos[j, 1] - pos[i, 1], box[1])
+            dz = min_image(pos[j, 2] - pos[i, 2], box[2])
+            r2 = dx * dx + dy * dy + dz * dz
+            if r2 >= rc2:
+                continue
+            r = np.sqrt(r2)
+            h = r - 2.0
+            t = (h - lo) * inv_dh
+            if t <= 0.0:
+                f = table[0]
+            elif t >= ntab - 1:
+                f = table[ntab - 1]
+            else:
+                q = int(t)
+                w = t - q
+                f = (1.0 - w) * table[q] + w * table[q + 1]
+            if cap_drift > 0.0 and f < 0.0 and dt > 0.0:
+                fmax = cap_drift * max(h, 0.0) / (2.0 * dt)
+                if -f > fmax:
+                    f = -fmax
+            vir += f * r
+            fr = f / r
+            force[i, 0] -= fr * dx
+            force[i, 1] -= fr * dy
+            force[i, 2] -= fr * dz
+            force[j, 0] += fr * dx
+            force[j, 1] += fr * dy
+            force[j, 2] += fr * dz
+        if ktrap != 0.0:
+            for i in range(n):
+                force[i, 0] -= ktrap * min_image(pos[i, 0] - cx, box[0])
+                force[i, 1] -= ktrap * min_image(pos[i, 1] - cy, box[1])
+                force[i, 2] -= ktrap * min_image(pos[i, 2] - cz, box[2])
+        state[S_VIRIAL] += vir
+        state[S_VIRIAL_STEPS] += 1.0
+        _move_clusters(pos, params, state, force, rng, lab, nxt, head, csize, frozen)
+        if params[P_BOND_WIDTH] >= 0.0 and rc2 > 0.0:
+            _rigid_overlaps(pos, box, params, state, istate, pi, pj, lab, head, nxt, csize, frozen)
+            status = _rigid_capture(pos, box, params, istate, pi, pj, flag, bonds, adj, deg, lab, nxt, head,
+                                    tail, csize, frozen)
+            if status != Status.OK:
+                return status
+        state[S_TIME] += dt
+        istate[I_STEPS] += 1
+        maxd2 = 0.0
+        for i in range(n):
+            d2 = 0.0
+            for c in range(3):
+                e = min_image(pos[i, c] - ref[i, c], box[c])
+                d2 += e * e
+            if d2 > maxd2:
+                maxd2 = d2
+        if maxd2 > half_skin2 and rc2 > 0.0:
+            pi, pj, flag = _build(pos, box, params, adj, deg, ncell)
+            for i in range(n):
+                for c in range(3):
+                    ref[i, c] = pos[i, c]
+            istate[I_REBUILDS] += 1
+    return Status.OK

@@ -17,16 +17,28 @@ separation) cannot be resolved with steps that resolve Brownian motion over a
 Debye length, and nothing escapes it.  Pairs that reach it are therefore **bonded
 irreversibly**: an unbonded pair whose surface separation falls below
 ``bond_width`` (default 1 nm, where the well is still more than 150 kBT deep) is
-bonded, and after every step the centres of bonded pairs are projected back into
-the shell ``0 <= h <= bond_width`` (and any overlap removed) by symmetric moves along
-the line of centres (Heyes & Melrose 1993 overlap removal plus a tether).  Bonds
-carry no tangential constraint, so bonded spheres roll on each other as they do in
-the central DLVO well, which lets clusters restructure and the coordination rise.
-Unbonded pairs feel the resolved DLVO force out to the cutoff; on the steep inner
-side of the barrier, where one step would carry a pair through contact, the
-attraction is capped so that a step closes at most a quarter of the gap (the pair
-then reaches contact in a few steps instead of jumping through it).  No sphere
-ever overlaps another by more than the projection tolerance.
+bonded.  Unbonded pairs feel the resolved DLVO force out to the cutoff; on the
+steep inner side of the barrier, where one step would carry a pair through contact,
+the attraction is capped so that a step closes at most a quarter of the gap.  What
+a bond constrains is the bond model ``bonds``:
+
+* ``"rigid"``: bonded spheres can neither roll nor slide on each other
+  (the seed's BD structures come from the "coagulation ... to stiff particle
+  structures" of Hütter's model, §2.2 of 003_873b69fc71c74cf6.txt).  Every bonded cluster is a
+  rigid body and moves by free-draining Brownian cluster dynamics: translation with
+  friction ``n ζ`` (``ζ = 6π η a``), rotation about its centre with the friction
+  tensor ``Ξ = ζ Σ_i (|u_i|² I - u_i u_iᵀ) + n (8π η a³) I`` (``u_i`` = offsets from
+  the centre), drift from the summed DLVO force and torque, Brownian noise of
+  covariance ``2 kT Δt`` times the inverse frictions (Ermak–McCammon for a rigid
+  body).  Overlaps between clusters are removed by rigid translations weighted by
+  the mobilities ``1/n`` (to 1e-10 radii); a cluster bonded to its own periodic
+  image wraps the box (percolates) and is immobile.  Distances inside a cluster are
+  conserved to round-off, so bonds stay in ``0 <= h <= bond_width`` for good.
+* ``"flexible"`` (default): central bonds only.  After every step the centres of bonded pairs
+  are projected back into the shell ``0 <= h <= bond_width`` (and any overlap
+  removed) by symmetric moves along the line of centres (Heyes & Melrose 1993
+  overlap removal plus a tether); bonded spheres roll freely on each other, which
+  lets clusters restructure and densify (Babu, Gimel & Nicolai 2008).
 
 Stopping rule
 -------------
@@ -41,6 +53,9 @@ References
 ----------
 Ermak, D. L. & McCammon, J. A., J. Chem. Phys. 69, 1352 (1978).
 Hütter, M., J. Colloid Interface Sci. 231, 337 (2000).
+Heyes, D. M. & Melrose, J. R., J. Non-Newtonian Fluid Mech. 46, 1 (1993).
+Babu, S., Gimel, J. C. & Nicolai, T., J. Chem. Phys. 128, 204504 (2008) (Brownian
+cluster dynamics; rigid and flexible bonds).
 """
 
 from __future__ import annotations
@@ -56,10 +71,17 @@ from ..errors import InfeasibleError, InvalidInputError, OverlapError
 from ..packing import Packing
 from .dlvo import DLVOParameters, _terms, dlvo_extrema, dlvo_parameters
 
-__all__ = ["brownian", "BrownianSimulation", "brownian_bonds", "MAX_STEP_FRACTION", "OVERLAP_TOLERANCE"]
+__all__ = ["brownian", "BrownianSimulation", "brownian_bonds", "BOND_MODELS", "MAX_STEP_FRACTION",
+           "OVERLAP_TOLERANCE"]
+
+#: Bond models: ``"rigid"`` (bonded spheres form rigid clusters: Brownian cluster
+#: dynamics, no rolling or sliding) and ``"flexible"`` (central bonds: free rolling).
+BOND_MODELS = ("rigid", "flexible")
 
 #: Largest allowed rms Brownian step per coordinate, ``sqrt(2 D0 Δt)``, in Debye lengths.
 MAX_STEP_FRACTION = 0.5
+#: Per-step overlap tolerance (radii) of the rigid model's cluster translations.
+RIGID_OVERLAP_TOLERANCE = 1e-10
 #: Default rms step per coordinate in Debye lengths.
 DEFAULT_STEP_FRACTION = 0.2
 #: Largest relative overlap ``1 - d_ij / (2a)`` tolerated in a returned gel (the final
@@ -114,11 +136,14 @@ class BrownianSimulation:
         centre (validation; 0 = none).
     seed : int or SeedSequence
     max_bonds_per_particle : int
+    bonds : {"rigid", "flexible"}
+        Bond model (see :func:`brownian`); ignored when ``bond_width`` is None.
     """
 
     def __init__(self, positions, box, parameters: DLVOParameters, *, time_step=None, bond_width=1e-9,
                  drift_cap=0.25, cutoff=None, skin=0.4, trap_stiffness=0.0, seed=None,
-                 max_bonds_per_particle=24, table_points=8192, max_sweeps=4, projection_tolerance=1e-7):
+                 max_bonds_per_particle=24, table_points=8192, max_sweeps=4, projection_tolerance=1e-7,
+                 bonds="flexible"):
         from .._kernels import bd
         from ..neighbors import choose_cells
 
@@ -171,6 +196,9 @@ class BrownianSimulation:
             if width >= a:
                 raise InvalidInputError(f"bond_width={bond_width!r} m must be smaller than the radius {a!r} m")
         self.bond_width = width
+        if bonds not in BOND_MODELS:
+            raise InvalidInputError(f"bonds={bonds!r}: must be one of {', '.join(map(repr, BOND_MODELS))}")
+        self.bond_model = bonds
         cap = _check_positive("drift_cap", drift_cap, allow_zero=True)
         if cap >= 1.0:
             raise InvalidInputError(f"drift_cap={drift_cap!r}: must be in [0, 1)")
@@ -184,6 +212,11 @@ class BrownianSimulation:
         params[bd.P_CAP_DRIFT] = cap
         params[bd.P_SWEEPS] = _check_int("max_sweeps", max_sweeps, 1)
         params[bd.P_PROJ_TOL] = _check_positive("projection_tolerance", projection_tolerance)
+        if bonds == "rigid":
+            # rigid translations remove an overlap in one move: resolve to round-off level, since an
+            # overlap left at capture is frozen into the rigid cluster for good
+            params[bd.P_PROJ_TOL] = min(params[bd.P_PROJ_TOL], RIGID_OVERLAP_TOLERANCE)
+            params[bd.P_SWEEPS] = max(params[bd.P_SWEEPS], 50)
         k_trap = _check_positive("trap_stiffness", trap_stiffness, allow_zero=True)
         params[bd.P_TRAP_K] = k_trap * a * a / p.kT
         # force table from a small overlap (or the bond width) to the cutoff
@@ -205,6 +238,14 @@ class BrownianSimulation:
         self._bonds = np.zeros((max(16, (n * maxb) // 2 + 1), 2), np.int64)
         self._adj = np.zeros((n, maxb), np.int64)
         self._deg = np.zeros(n, np.int64)
+        # cluster bookkeeping of the rigid model (labels, member lists, sizes, wrapping flags)
+        self._lab = np.zeros(n, np.int64)
+        self._nxt = np.zeros(n, np.int64)
+        self._head = np.zeros(n, np.int64)
+        self._tail = np.zeros(n, np.int64)
+        self._csize = np.zeros(n, np.int64)
+        self._frozen = np.zeros(n, np.uint8)
+        bd.init_clusters(n, self._lab, self._nxt, self._head, self._tail, self._csize, self._frozen)
         if p.hamaker == 0.0 and p.surface_potential == 0.0 and width is None:
             params[bd.P_R_CUT] = 0.0  # independent spheres: no neighbour list
         self._ncell = choose_cells(self._box, n, rc + skin)
@@ -226,12 +267,25 @@ class BrownianSimulation:
         if not noise:
             params = params.copy()
             params[bd.P_NOISE] = 0.0
-        status = bd.run(self._pos, self._box, params, self._state, self._istate, self._table, self._bonds,
-                        self._adj, self._deg, self._ncell, self._rng, steps)
+        status = self._kernel(params, steps)
         if status != bd.Status.OK:  # the bond arrays hold N * max_bonds_per_particle / 2: only the per-sphere limit
             raise InfeasibleError(
                 f"a sphere reached max_bonds_per_particle={self._adj.shape[1]} bonds; raise the limit"
             )
+
+    def _kernel(self, params, steps):
+        bd = self._bd
+        if self.bond_model == "rigid" and self.bond_width is not None:
+            return bd.run_rigid(self._pos, self._box, params, self._state, self._istate, self._table, self._bonds,
+                                self._adj, self._deg, self._ncell, self._rng, steps, self._lab, self._nxt,
+                                self._head, self._tail, self._csize, self._frozen)
+        return bd.run(self._pos, self._box, params, self._state, self._istate, self._table, self._bonds,
+                      self._adj, self._deg, self._ncell, self._rng, steps)
+
+    @property
+    def frozen_clusters(self) -> int:
+        """Number of rigid clusters that wrap the box (bonded to their own image: immobile)."""
+        return int(np.count_nonzero(self._frozen)) if self.bond_model == "rigid" else 0
 
     @property
     def time(self) -> float:
@@ -288,8 +342,7 @@ class BrownianSimulation:
         q[bd.P_OVERLAP_ONLY] = 1.0 if overlap_only else 0.0
         t, steps = self._state[bd.S_TIME], self._istate[bd.I_STEPS]
         self._state[bd.S_MAX_RESIDUAL] = 0.0
-        status = bd.run(self._pos, self._box, q, self._state, self._istate, self._table, self._bonds,
-                        self._adj, self._deg, self._ncell, self._rng, 1)
+        status = self._kernel(q, 1)
         self._state[bd.S_TIME], self._istate[bd.I_STEPS] = t, steps
         if status != bd.Status.OK:
             raise InfeasibleError(f"a sphere reached max_bonds_per_particle={self._adj.shape[1]} bonds")
@@ -307,6 +360,8 @@ class BrownianSimulation:
         """
         if self.bond_width is None:
             return 0.0
+        if self.bond_model == "rigid":  # bonds never stretch; one overlap removal and capture pass
+            return self._sweep(max_sweeps, False, tolerance=OVERLAP_TOLERANCE)
         self._sweep(max_sweeps, False)
         return self._sweep(20 * max_sweeps, True, tolerance=OVERLAP_TOLERANCE)
 
@@ -386,6 +441,7 @@ def brownian(
     max_time=None,
     max_steps=None,
     progress=None,
+    bonds="flexible",
 ) -> Packing:
     """Coagulated colloidal gel by Brownian dynamics with DLVO forces.
 
@@ -417,6 +473,12 @@ def brownian(
     bond_width : float
         Capture separation and bond shell width (m), default 1 nm (coagulation
         rule in the module docstring).
+    bonds : {"rigid", "flexible"}
+        Bond model (module docstring): ``"rigid"``: bonded clusters move as rigid
+        bodies (no rolling or sliding, Brownian cluster dynamics); ``"flexible"``
+        (default): central bonds, bonded spheres roll freely.  At Φ = 0.4 neither
+        reproduces Table 2 of 003_873b69fc71c74cf6.txt (C = 4.5-5.1): rigid gels
+        are loop-poor (C ≈ 2), flexible ones too dense (C ≈ 6); see docs/brownian.md.
     cutoff : float, optional
         Centre-distance cutoff of the DLVO force (m), default 2.5 a.
     record_interval : float, optional
@@ -460,6 +522,8 @@ def brownian(
         is returned.
     """
     n = _check_int("n", n, 16)
+    if bonds not in BOND_MODELS:
+        raise InvalidInputError(f"bonds={bonds!r}: must be one of {', '.join(map(repr, BOND_MODELS))}")
     phi = float(volume_fraction)
     if not (0.0 < phi <= 0.55):
         raise InvalidInputError(f"volume_fraction={volume_fraction!r}: must be in (0, 0.55]")
@@ -485,7 +549,7 @@ def brownian(
     # initial fluid: a stable suspension with every surface gap at least two Debye lengths
     pos0 = _initial_positions(n, a, box_len, 2.0 * p.debye_length, s_init)
     sim = BrownianSimulation(pos0, box_len, p, time_step=time_step, bond_width=bond_width, cutoff=cutoff,
-                             seed=s_noise)
+                             seed=s_noise, bonds=bonds)
     dt = sim.time_step
     steps_per_record = max(1, int(round(record_interval / dt)))
     window_records = max(1, int(round(stable_window / (steps_per_record * dt))))
@@ -553,6 +617,8 @@ def brownian(
             "rms_step": sim.rms_step,
             "rms_step_debye": sim.rms_step / p.debye_length,
             "bond_width": sim.bond_width,
+            "bonds": sim.bond_model,
+            "frozen_clusters": sim.frozen_clusters,
             "final_overlap_residual": residual,
             "bond_gap_max": float(gaps.max()) if gaps.size else 0.0,
             "bond_gap_mean": float(gaps.mean()) if gaps.size else 0.0,
