@@ -474,6 +474,13 @@ def warmup():
     cluster_labels(8, bonds, istate[I_NBONDS])
     wrapping_axes(pos, box, bonds, istate[I_NBONDS])
     fill_normals(rng_state, state, np.empty(4))
+    lab, nxt, head, tail, csize = (np.zeros(8, np.int64) for _ in range(5))
+    frozen = np.zeros(8, np.uint8)
+    init_clusters(8, lab, nxt, head, tail, csize, frozen)
+    deg[:] = 0
+    istate[:] = 0
+    run_rigid(pos, box, params, state, istate, table, bonds, adj, deg, np.array([2, 2, 2], np.int64), rng_state, 3,
+              lab, nxt, head, tail, csize, frozen)
 
 
 # ----------------------------------------------------------------------------------------
