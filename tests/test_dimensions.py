@@ -178,11 +178,10 @@ def test_3d_only_analyses_reject_2d_and_walls(make):
 def test_generators_reject_2d():
     with pytest.raises(pp.InvalidInputError, match="2D packing"):
         pp.shake(_hex_disks(), global_shakes=1, seed=1)
-    with pytest.raises(pp.InvalidInputError, match="2D packing"):
-        pp.pack(_hex_disks(), volume_fraction=0.5, seed=1)
+    # pp.pack grows 2D packs (tests/test_pack2d.py); a 2D size set cannot be forced into 3D
     sizes = pp.psd.SizeSet(np.full(20, 0.5), dim=2)
-    with pytest.raises(pp.InvalidInputError, match="dim=2"):
-        pp.pack(sizes, volume_fraction=0.5, seed=1)
+    with pytest.raises(pp.InvalidInputError, match="dim=3 but the size set is 2D"):
+        pp.pack(sizes, volume_fraction=0.5, seed=1, dim=3)
 
 
 # ---------------------------------------------------------------- io

@@ -113,8 +113,10 @@ def register(app: typer.Typer) -> None:
             help="On Ctrl-C save the partial pack (status 'interrupted') here; never under --output.",
         ),
         progress: Optional[bool] = typer.Option(None, "--progress/--no-progress", help="Progress bar."),
+        dim: Optional[int] = typer.Option(
+            None, "--dim", help="3 (spheres) or 2 (disks in a periodic square); default: the input's, else 3."),
     ):
-        """Pack spheres by Lubachevsky–Stillinger growth to a volume fraction or to jamming."""
+        """Pack spheres (or disks, --dim 2) by Lubachevsky–Stillinger growth to a volume fraction or to jamming."""
         from .. import io
         from .._util import output_path
         from ..errors import Interrupted
@@ -153,7 +155,7 @@ def register(app: typer.Typer) -> None:
             kw["species"] = species
         try:
             pk = pack(src, vf, seed=seed, growth_rate=growth_rate, max_seconds=max_seconds,
-                      max_collisions=max_collisions, progress=progress, **kw)
+                      max_collisions=max_collisions, progress=progress, dim=dim, **kw)
         except Interrupted as exc:
             not_out = f"; nothing written to {output}" if output is not None else ""
             if checkpoint is not None and exc.partial is not None:

@@ -57,13 +57,26 @@ def carnahan_starling(volume_fraction):
     return (1 + eta + eta**2 - eta**3) / (1 - eta) ** 3
 
 
-def _parse_sizes(sizes, species):
-    """Radii, species and (for a continuation) the starting Packing."""
+def _check_dim(dim, own, what):
+    """The packing dimension: ``dim`` if given (it must agree with ``own`` when that is known), else ``own``."""
+    if dim is not None:
+        if isinstance(dim, bool) or dim not in (2, 3):
+            raise InvalidInputError(f"dim={dim!r}: allowed are 2 (disks) and 3 (spheres)")
+        dim = int(dim)
+        if own is not None and own != dim:
+            raise InvalidInputError(f"dim={dim} but the {what} is {own}D; leave dim out or pass {what}s for dim={dim}")
+        return dim
+    return 3 if own is None else int(own)
+
+
+def _parse_sizes(sizes, species, dim=None):
+    """Radii, species, (for a continuation) the starting Packing, and the dimension."""
     start = None
     if isinstance(sizes, Packing):
-        if sizes.dim != 3 or not sizes.fully_periodic:
+        dim = _check_dim(dim, sizes.dim, "packing")
+        if not sizes.fully_periodic:
             raise InvalidInputError(
-                f"pack continues 3D fully periodic packings only; got a {sizes.dim}D packing with "
+                f"pack continues fully periodic packings only; got a {sizes.dim}D packing with "
                 f"periodic={sizes.periodic}"
             )
         start = sizes
@@ -71,15 +84,13 @@ def _parse_sizes(sizes, species):
         sp = np.array(sizes.species, dtype=np.int64)
         if species is not None:
             raise InvalidInputError("species= cannot be given together with a Packing; the Packing's species are used")
-        return radii, sp, start
+        return radii, sp, start, dim
     if hasattr(sizes, "radii"):
-        if getattr(sizes, "dim", 3) != 3:
-            raise InvalidInputError(
-                f"pack builds 3D sphere packs only; the sizes are for dim={sizes.dim} (no 2D generator here)"
-            )
+        dim = _check_dim(dim, int(getattr(sizes, "dim", 3)), "size set")
         radii = np.array(sizes.radii, dtype=np.float64)
         sp = getattr(sizes, "species", None) if species is None else species
     else:
+        dim = _check_dim(dim, None, "size set")
         if isinstance(sizes, (int, np.integer)) and not isinstance(sizes, bool):
             raise InvalidInputError(
                 f"sizes={sizes}: pass an array of radii (e.g. numpy.full({sizes}, 1.0)) or a SizeSet, not a count"
@@ -111,7 +122,7 @@ def _parse_sizes(sizes, species):
         sp = sp.astype(np.int64)
         if sp.min() < 0:
             raise InvalidInputError(f"species {int(sp.min())} is negative; species must be >= 0")
-    return radii, sp, start
+    return radii, sp, start, dim
 
 
 @dataclass(frozen=True)
@@ -169,6 +180,7 @@ def pack(
     fast_growth_until=0.3,
     tuning=None,
     progress=None,
+    dim=None,
 ) -> Packing:
     """Random dense pack of polydisperse spheres by Lubachevsky–Stillinger growth (exact EDMD).
 
@@ -184,6 +196,10 @@ def pack(
         ``.species`` (a :class:`polypack.psd.SizeSet`), an array of radii, or a
         :class:`~polypack.Packing` to continue from (its positions are the start,
         e.g. to compress a shaken pack further).
+    dim : {3, 2}, optional
+        3 packs spheres in a periodic cube, 2 packs disks in a periodic square
+        (the 2D engine :mod:`polypack._kernels.edmd2d`; "volume fraction" is then the
+        area fraction).  Default: the dimension of the size set or Packing, else 3.
     volume_fraction : float or "jammed"
         Target volume fraction ``c``, hit exactly (growth stops at the moment it is
         reached), or ``"jammed"`` to grow until the reduced pressure exceeds
@@ -233,7 +249,7 @@ def pack(
         "time_budget"), ``collisions``, ``events``, ``wall_time``,
         ``collisions_per_second``, ``pressure_history`` (rows ``volume_fraction,
         reduced_pressure``), ``reduced_pressure``, ``jamming_estimate``
-        (``φ/(1 − 3/p)``), ``growth_rate``, ``seed``, ``min_gap``,
+        (``φ/(1 − d/p)``, ``d`` the dimension: Skoge et al.'s estimate), ``growth_rate``, ``seed``, ``min_gap``,
         ``shrink_factor``.
 
     Raises
@@ -269,8 +285,6 @@ def pack(
     scatter, tested).  ``meta["fast_start"]`` records it; the pressure history
     starts where it ends.
     """
-    from .._kernels import edmd
-
     if tuning is None:
         tuning = PackTuning()
     elif not isinstance(tuning, PackTuning):
@@ -280,7 +294,11 @@ def pack(
                fast_growth=fast_growth, fast_growth_until=fast_growth_until, **dataclasses.asdict(tuning))
     wall0 = time.perf_counter()
 
-    radii, species, start = _parse_sizes(sizes, opt["species"])
+    radii, species, start, dim = _parse_sizes(sizes, opt["species"], dim)
+    if dim == 2:
+        from .._kernels import edmd2d as edmd
+    else:
+        from .._kernels import edmd
     n = radii.size
     jammed_mode = isinstance(volume_fraction, str)
     if jammed_mode:
@@ -325,7 +343,8 @@ def pack(
     ss = as_seed_sequence(seed)
     rng = rng_from(ss)
     mean_r = float(radii.mean())
-    vol_spheres = _SPHERE * float(np.sum(radii**3))
+    ball = unit_ball_volume(dim)
+    vol_spheres = ball * float(np.sum(radii**dim))
     # internal units: mean radius 1 at t = 2/Γ, thermal speed 1
     g = gamma * (radii / mean_r) / 2.0
     t_unit = 2.0 / gamma  # time at which internal radii equal radii/mean_r
@@ -347,27 +366,27 @@ def pack(
             )
     else:
         phi_box = target if target is not None else float(opt["jammed_reference_fraction"])
-        side = (vol_spheres / phi_box) ** (1.0 / 3.0) / mean_r
-        box = np.full(3, side)
-        x = rng.random((n, 3)) * side
+        side = (vol_spheres / phi_box) ** (1.0 / dim) / mean_r
+        box = np.full(dim, side)
+        x = rng.random((n, dim)) * side
         t0 = 0.0
         phi0 = 0.0
-    v = rng.normal(size=(n, 3))
+    v = rng.normal(size=(n, dim))
     # work in a spatially sorted order (cache locality); undone before returning
     perm = _spatial_order(x, box)
     x = np.ascontiguousarray(x[perm])
     v = np.ascontiguousarray(v[perm])
     g = np.ascontiguousarray(g[perm])
     box_vol = float(np.prod(box))
-    vol_unit = _SPHERE * float(np.sum((radii / mean_r) ** 3))  # sphere volume at t_unit
+    vol_unit = ball * float(np.sum((radii / mean_r) ** dim))  # sphere volume at t_unit
 
     def phi_at(t):
-        return vol_unit * (t / t_unit) ** 3 / box_vol
+        return vol_unit * (t / t_unit) ** dim / box_vol
 
     # largest admissible time: the largest diameter must stay below half the box
     t_cap = 0.245 * float(box.min()) / float(g.max())
     if target is not None:
-        t_target = t_unit * (target * box_vol / vol_unit) ** (1.0 / 3.0)
+        t_target = t_unit * (target * box_vol / vol_unit) ** (1.0 / dim)
         if t_target > t_cap:
             dmax = 2 * float(radii.max())
             raise InfeasibleError(
@@ -378,7 +397,8 @@ def pack(
         t_ref = t_target
     else:
         t_stop = t_cap
-        t_ref = min(t_unit * (0.64 * box_vol / vol_unit) ** (1.0 / 3.0), t_cap)
+        phi_guess = 0.64 if dim == 3 else 0.84  # typical jamming fractions (shell widths only)
+        t_ref = min(t_unit * (phi_guess * box_vol / vol_unit) ** (1.0 / dim), t_cap)
     t_ref = max(t_ref, t0)
     # Fast start: below ``phi_fast`` (at most half the target) the velocities are
     # rescaled to thermal speed 1/fast, so the radii grow ``fast`` times more per
@@ -386,7 +406,7 @@ def pack(
     # the slow compression from phi_fast on erases this history; it saves the long
     # free flights of the dilute start (most of the simulated time, few collisions).
     phi_fast = min(phi_fast, 0.5 * target) if target is not None else phi_fast
-    t_fast = t_unit * (phi_fast * box_vol / vol_unit) ** (1.0 / 3.0)
+    t_fast = t_unit * (phi_fast * box_vol / vol_unit) ** (1.0 / dim)
     fast_phase = fast > 1.0 and t_fast > t0
 
     state = np.zeros(edmd.N_STATE)
@@ -506,7 +526,7 @@ def pack(
     collisions = int(state[edmd.S_COLLISIONS])
     phi_reached = vol_spheres / float(np.prod(box_out))
     p_last = float(hist_rows[-1][1]) if hist_rows else float("nan")
-    jam = phi_reached / (1.0 - 3.0 / p_last) if (p_last > 3.0 and math.isfinite(p_last)) else float("nan")
+    jam = phi_reached / (1.0 - dim / p_last) if (p_last > dim and math.isfinite(p_last)) else float("nan")
     meta = {}
     if start is not None:
         meta = dict(start.meta)
@@ -550,10 +570,12 @@ def pack(
 
 def _spatial_order(x, box):
     """Sphere order along a coarse cell grid (neighbours close in memory)."""
-    n = x.shape[0]
-    m = max(1, int(round((n / 4.0) ** (1.0 / 3.0))))
+    n, dim = x.shape
+    m = max(1, int(round((n / 4.0) ** (1.0 / dim))))
     c = np.floor(np.mod(x, box) / box * m).astype(np.int64).clip(0, m - 1)
-    key = (c[:, 0] * m + c[:, 1]) * m + c[:, 2]
+    key = c[:, 0] * m + c[:, 1]
+    if dim == 3:
+        key = key * m + c[:, 2]
     return np.argsort(key, kind="stable")
 
 
