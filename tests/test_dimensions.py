@@ -160,16 +160,20 @@ def test_contacts_support_2d_and_walls():
 
 
 @pytest.mark.parametrize(
-    "make",
+    "make, two_d",
     [
-        lambda: pp.analysis.RDF(r_max=2.0, dr=0.1),
-        lambda: pp.analysis.KFunction(r_max=2.0, dr=0.1),
-        lambda: pp.analysis.PoreSizes(n_points=100, seed=1),
+        (lambda: pp.analysis.RDF(r_max=2.0, dr=0.1), True),
+        (lambda: pp.analysis.KFunction(r_max=2.0, dr=0.1), True),
+        (lambda: pp.analysis.WindowCounts(window_radius=2.5), True),
+        (lambda: pp.analysis.PoreSizes(n_points=100, seed=1), False),
     ],
 )
-def test_3d_only_analyses_reject_2d_and_walls(make):
-    with pytest.raises(pp.InvalidInputError, match="3D packings only; got a 2D"):
-        make().compute(_hex_disks())
+def test_periodic_only_analyses_reject_walls_and_3d_only_reject_2d(make, two_d):
+    if two_d:  # 2D support: tests/test_analysis_2d.py
+        assert make().compute(_hex_disks()).n_realizations == 1
+    else:
+        with pytest.raises(pp.InvalidInputError, match="3D packings only; got a 2D"):
+            make().compute(_hex_disks())
     walls = pp.Packing(np.array([[2.0, 2.0, 2.0], [5.0, 5.0, 5.0]]), [0.5, 0.5], 10.0, periodic=(True, True, False))
     with pytest.raises(pp.InvalidInputError, match="periodic on every axis"):
         make().compute(walls)

@@ -89,13 +89,17 @@ def half_shell_offsets(ncell, cl, r_max):
 
     Offsets within ``R = ceil(r_max / cl)`` cells per axis that are lexicographically
     positive, minus those whose closest points are farther apart than ``r_max``.
-    Returns ``(M, 3)`` int64, or an empty array when a grid axis is too short for the
-    offsets to be distinct (``ncell < 2 R + 1``).
+    An axis with a single cell (the slab axis of an embedded 2D pack) needs no offset
+    along it: every pair along it shares the cell.  Returns ``(M, 3)`` int64, or an
+    empty array when a grid axis is too short for the offsets to be distinct
+    (``1 < ncell < 2 R + 1``).
     """
     rr = np.empty(3, np.int64)
     for k in range(3):
         rr[k] = int(np.ceil(r_max / cl[k]))
-        if ncell[k] < 2 * rr[k] + 1:
+        if ncell[k] == 1:
+            rr[k] = 0
+        elif ncell[k] < 2 * rr[k] + 1:
             return np.empty((0, 3), np.int64)
     cap = (2 * rr[0] + 1) * (2 * rr[1] + 1) * (2 * rr[2] + 1)
     out = np.empty((cap, 3), np.int64)

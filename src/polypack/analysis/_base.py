@@ -399,10 +399,11 @@ class PairCountEstimator(GridEstimator):
         super().__init__(r_max, dr, bins)
         self.scale = check_scale(scale)
         self.normalization = check_normalization(normalization)
+        self._dim = 3
 
     def _begin(self, packing, reset, what):
-        """Input checks and reset before adding ``packing`` as a realization."""
-        check_packing(packing, min_n=2, what=what)
+        """Input checks and reset before adding ``packing`` as a realization (3D or 2D, periodic)."""
+        check_packing(packing, min_n=2, what=what, dims=(2, 3))
         if reset:
             self.reset()
         elif self._frames and self._frames[0][self._count_key].shape[0] != packing.n_species:
@@ -410,6 +411,17 @@ class PairCountEstimator(GridEstimator):
                 f"pack has {packing.n_species} species but earlier realizations had "
                 f"{self._frames[0][self._count_key].shape[0]}; use reset=True"
             )
+        elif self._frames and self._dim != packing.dim:
+            raise InvalidInputError(
+                f"pack is {packing.dim}D but earlier realizations were {self._dim}D; use reset=True"
+            )
+        self._dim = packing.dim
+
+    @property
+    def dim(self) -> int:
+        """Space dimension of the accumulated packs (shell volumes are ``dim``-dimensional)."""
+        self._require()
+        return self._dim
 
     def _pooled(self):
         """Summed counts, ideal pair densities per species pair, and the total density."""

@@ -81,8 +81,8 @@ class KFunction(PairCountEstimator):
 
     @property
     def L(self) -> np.ndarray:
-        """Besag's ``L(r) = (3 K(r) / 4 pi)^(1/3)`` (equals r for a Poisson process)."""
-        return np.cbrt(3.0 * self.K / (4.0 * np.pi))
+        """Besag's ``L(r) = (3 K(r) / 4 pi)^(1/3)`` (2D: ``sqrt(K / pi)``; equals r for a Poisson process)."""
+        return _besag(self.K, self._dim)
 
     @property
     def K_err(self) -> np.ndarray:
@@ -96,8 +96,9 @@ class KFunction(PairCountEstimator):
 
     @property
     def poisson(self) -> np.ndarray:
-        """``4 pi r^3 / 3``, K of a Poisson process at :attr:`r`."""
-        return ball_volume(self.r, 3)
+        """``4 pi r^3 / 3`` (2D: ``pi r^2``), K of a Poisson process at :attr:`r`."""
+        self._require()
+        return ball_volume(self.r, self._dim)
 
     def to_dict(self) -> dict:
         self._require()
@@ -130,7 +131,7 @@ class KFunction(PairCountEstimator):
         r = self.r
 
         def tr(k):
-            return np.cbrt(3.0 * k / (4.0 * np.pi)) - r if centred else k
+            return _besag(k, self._dim) - r if centred else k
 
         ax.plot(r, tr(self.K), color="k", lw=1.5, label="total")
         part = self.partial
@@ -148,3 +149,10 @@ class KFunction(PairCountEstimator):
         ax.set_xlabel("r / (a_i + a_j)" if self.scale == "contact" else "r")
         ax.legend()
         return ax
+
+
+def _besag(k, dim):
+    """Besag's L transform: the radius of the ball of volume K (``dim`` 3 or 2)."""
+    if dim == 3:
+        return np.cbrt(3.0 * k / (4.0 * np.pi))
+    return np.sqrt(np.asarray(k, dtype=np.float64) / np.pi)

@@ -72,7 +72,10 @@ def size_classes(packing, n_classes=None, edges=None, spacing="geometric"):
 
 
 class RDF(PairCountEstimator):
-    """Radial distribution function and all partial RDFs of a periodic pack.
+    """Radial distribution function and all partial RDFs of a periodic pack (spheres or disks).
+
+    2D packs (disks) use circular shells (``2 pi r dr``, area ``pi (r_2^2 - r_1^2)``)
+    and the box area; 3D packs spherical shells and the box volume.
 
     Parameters
     ----------
@@ -156,15 +159,15 @@ class RDF(PairCountEstimator):
         if self.method == "histogram":
             edges = np.arange(n + 1) * h
             r = 0.5 * (edges[:-1] + edges[1:])
-            vol = shell_volume(edges[:-1], edges[1:], 3)
+            vol = shell_volume(edges[:-1], edges[1:], self._dim)
             sel = [np.array([k]) for k in range(n)]
         elif self.method == "right":
             r = np.arange(1, n) * h
-            vol = shell_measure(r, 3) * h
+            vol = shell_measure(r, self._dim) * h
             sel = [np.array([k]) for k in range(1, n)]
         else:
             r = np.arange(1, n) * 2.0 * h
-            vol = shell_measure(r, 3) * (2.0 * h)
+            vol = shell_measure(r, self._dim) * (2.0 * h)
             sel = [np.array([2 * k - 1, 2 * k]) for k in range(1, n)]
         idx = np.stack(sel)
         return r, idx, vol
@@ -349,7 +352,7 @@ def contact_value(packing, pairs=None, width=0.05, n_bins=10, degree=1, return_e
     """
     from ..neighbors import pairs_within
 
-    check_packing(packing, min_n=2, what="contact_value")
+    check_packing(packing, min_n=2, what="contact_value", dims=(2, 3))
     width = check_positive("width", width)
     if int(n_bins) != n_bins or n_bins < degree + 1:
         raise InvalidInputError(f"n_bins={n_bins!r} must be an integer >= degree + 1 = {degree + 1}")
@@ -372,7 +375,7 @@ def contact_value(packing, pairs=None, width=0.05, n_bins=10, degree=1, return_e
     w, _ = pair_norms(packing, "contact", "finite_size")
     dens = w / packing.box_volume
     edges = 1.0 + np.linspace(0.0, width, n_bins + 1)
-    vol = shell_volume(edges[:-1], edges[1:], 3)
+    vol = shell_volume(edges[:-1], edges[1:], packing.dim)
     centres = 0.5 * (edges[1:] + edges[:-1]) - 1.0
     values, errors = {}, {}
     for k, m in pairs:

@@ -6,9 +6,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import InvalidInputError
-from ..neighbors import choose_cells
 from ._base import Estimator, GridEstimator, PairMap, check_packing, check_positive, check_r_max, to_jsonable
-from ._paircounts import pair_counts, species_radii
+from ._paircounts import kernel_frame, pair_counts, species_radii
 
 __all__ = ["WindowCounts", "ShellCount", "lattice_shell_count"]
 
@@ -18,7 +17,8 @@ _JACK_BLOCKS = 3  # spatial blocks per axis of the single-realization jackknife 
 class WindowCounts(Estimator):
     """Histogram p(n_h) of the number of sphere centres in a window around each sphere.
 
-    The window around a sphere of species k is a ball of radius
+    Periodic 3D packs or 2D packs (the window is then a disk).  The window around a
+    sphere of species k is a ball of radius
     ``window_radius * a^(k)`` centred on it (Fig. 4 of 000_2cedc098acbd866b.txt uses
     ``r_h = 2.5 a``); ``n_h`` counts the *other* centres inside (``d <= r_h``), plus
     the centre sphere itself if ``include_self``.
@@ -56,17 +56,16 @@ class WindowCounts(Estimator):
         """Count the centres in the window of every sphere; returns ``self``."""
         from .._kernels import analysis as kern
 
-        check_packing(packing, min_n=1, what="WindowCounts")
+        check_packing(packing, min_n=1, what="WindowCounts", dims=(2, 3))
         if reset:
             self.reset()
         a = species_radii(packing)[packing.species] if self.reference == "species" else packing.radii
         window = np.ascontiguousarray(self.window_radius * a, dtype=np.float64)
         check_r_max(float(window.max()), packing.box, what="window radius R_h a")
-        box = np.ascontiguousarray(packing.box, dtype=np.float64)
-        nc = choose_cells(box, packing.n, 0.5 * float(np.percentile(window, 10)))
+        pos, box, nc = kernel_frame(packing, 0.5 * float(np.percentile(window, 10)))
         ns = packing.n_species
         cnt = kern.window_counts(
-            np.ascontiguousarray(packing.positions), np.ascontiguousarray(packing.radii),
+            pos, np.ascontiguousarray(packing.radii),
             np.ascontiguousarray(packing.species, dtype=np.int64), box, ns, window, nc,
         )
         if self.include_self:
@@ -184,11 +183,12 @@ class ShellCount(GridEstimator):
     ``I(r, Delta r) = 4 pi n r^2 Delta r g+(r, Delta r)`` of 000_2cedc098acbd866b.txt
     with ``n = N / V``: the delta functions of a lattice RDF are integrated out and
     I is the integer shell population (6 at ``r = 2a`` for simple cubic, Fig. 7).
+    2D packs are accepted (``2 pi n r Delta r g+``; 6 at ``r = 2a`` for the triangular lattice).
     ``partial[(k, m)]`` counts m centres around k spheres.
     """
 
     def compute(self, packing, reset=True):
-        check_packing(packing, min_n=2, what="ShellCount")
+        check_packing(packing, min_n=2, what="ShellCount", dims=(2, 3))
         if reset:
             self.reset()
         ns = packing.n_species
