@@ -47,7 +47,6 @@ def test_rdf_triangular_lattice_first_shell_exact():
     pk = triangular()
     dr = 0.02
     g = pp.analysis.RDF(r_max=2.5, dr=dr).compute(pk)
-    assert g.dim == 2
     k = int(np.floor(1.0 / dr + 1e-9))
     area = float(np.prod(pk.box))
     expected = 6 * area / ((pk.n - 1) * np.pi * ((1.0 + dr) ** 2 - 1.0))

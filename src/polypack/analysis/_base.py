@@ -415,13 +415,7 @@ class PairCountEstimator(GridEstimator):
             raise InvalidInputError(
                 f"pack is {packing.dim}D but earlier realizations were {self._dim}D; use reset=True"
             )
-        self._dim = packing.dim
-
-    @property
-    def dim(self) -> int:
-        """Space dimension of the accumulated packs (shell volumes are ``dim``-dimensional)."""
-        self._require()
-        return self._dim
+        self._dim = packing.dim  # shell volumes are dim-dimensional
 
     def _pooled(self):
         """Summed counts, ideal pair densities per species pair, and the total density."""
