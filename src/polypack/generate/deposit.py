@@ -17,7 +17,7 @@ from .._util import as_seed_sequence, progress_bar, rng_from, seed_record
 from ..errors import InvalidInputError, OverlapError
 from ..packing import Packing
 
-__all__ = ["deposit", "deposit_arrays", "DEFAULT_TOLERANCE", "DEFAULT_FRACTION_GUESS"]
+__all__ = ["deposit", "deposit_arrays", "deposit_arrays_3d", "DEFAULT_TOLERANCE", "DEFAULT_FRACTION_GUESS"]
 
 DEFAULT_TOLERANCE = 1e-10
 """Relative tolerance of the kernel's contact tests and tie rule (heights equal within ``tol * r``)."""
@@ -25,18 +25,23 @@ DEFAULT_TOLERANCE = 1e-10
 DEFAULT_FRACTION_GUESS = 0.82
 """Packing fraction used to choose a default width giving a roughly square deposit."""
 
+DEFAULT_FRACTION_GUESS_3D = 0.6
+"""The same for 3D deposits (a roughly cubic deposit)."""
+
 _CHUNK = 2000
 
 
-def _parse_radii(sizes):
+def _parse_radii(sizes, dim=None):
+    if dim is not None and (isinstance(dim, bool) or dim not in (2, 3)):
+        raise InvalidInputError(f"dim={dim!r}: allowed are 2 (disks) and 3 (spheres)")
     if isinstance(sizes, Packing):
         raise InvalidInputError("deposit takes sizes (a SizeSet or an array of radii), not a Packing")
     if hasattr(sizes, "radii"):
-        dim = int(getattr(sizes, "dim", 2))
-        if dim != 2:
+        own = int(getattr(sizes, "dim", 2))
+        if dim is not None and own != dim:
             raise InvalidInputError(
-                f"the size set is for dim={dim}; deposit builds 2D disk packs only "
-                "(use pp.psd.discretize(..., dim=2)); 3D deposition is not implemented")
+                f"dim={dim} but the size set is for dim={own}; leave dim out or pass sizes for dim={dim}")
+        dim = own
         radii = np.array(sizes.radii, dtype=np.float64)
         species = np.array(getattr(sizes, "species", np.zeros(radii.size)), dtype=np.int64)
     else:
@@ -46,13 +51,14 @@ def _parse_radii(sizes):
             raise InvalidInputError(
                 f"sizes of type {type(sizes).__name__}: allowed are a SizeSet or an array of radii") from None
         species = np.zeros(radii.size, dtype=np.int64)
+        dim = 2 if dim is None else int(dim)
     if radii.ndim != 1 or radii.size < 1:
         raise InvalidInputError(f"radii must be a non-empty 1-D array, got shape {radii.shape}")
     bad = ~np.isfinite(radii) | (radii <= 0)
     if bad.any():
         k = int(np.flatnonzero(bad)[0])
         raise InvalidInputError(f"radius of disk {k} is {radii[k]!r}; radii must be finite and > 0")
-    return radii, species
+    return radii, species, dim
 
 
 def deposit_arrays(radii, width, periodic=True, bed_positions=None, bed_radii=None,
@@ -142,9 +148,119 @@ def deposit_arrays(radii, width, periodic=True, bed_positions=None, bed_radii=No
     return pos, rad, support, stats
 
 
+def deposit_arrays_3d(radii, width, periodic=True, tolerance=DEFAULT_TOLERANCE, progress=None):
+    """Deposit spheres of the given radii **in the given order** (3D); plain arrays in and out.
+
+    Parameters
+    ----------
+    radii : (N,) array of float
+        Radii in deposition order.
+    width : (2,) floats
+        Box lengths ``Lx, Ly``.
+    periodic : bool
+        Periodic x and y axes (else walls at 0 and ``L`` on both).
+    tolerance : float
+        Relative tolerance of the contact tests and of the tie rule.
+    progress : bool, optional
+        Progress bar (default: only on a terminal).
+
+    Returns
+    -------
+    positions : (N, 3) array
+    supports : (N, 3) int64 array
+        The three supports of each sphere: indices, or the codes ``FLOOR``, ``WALL_X0``,
+        ``WALL_X1``, ``WALL_Y0``, ``WALL_Y1``, ``NO_SUPPORT`` of :mod:`polypack._kernels.deposit3d`.
+    stats : dict
+        Surface statistics (alive spheres, overhang placements, candidate searches).
+    """
+    from .._kernels import deposit3d as k3
+
+    rad = np.ascontiguousarray(radii, dtype=np.float64)
+    n = rad.size
+    lx, ly = float(width[0]), float(width[1])
+    rmax = float(rad.max())
+    col = 0.5 * float(rad.min())
+    # at most ~4e6 column cells
+    col = max(col, math.sqrt(lx * ly / 4e6))
+    params = np.zeros(int(k3.Deposit3DParam.N_PARAMS))
+    params[k3.Deposit3DParam.LX] = lx
+    params[k3.Deposit3DParam.LY] = ly
+    params[k3.Deposit3DParam.PERIODIC_X] = 1.0 if periodic else 0.0
+    params[k3.Deposit3DParam.PERIODIC_Y] = 1.0 if periodic else 0.0
+    params[k3.Deposit3DParam.TOL] = tolerance
+    params[k3.Deposit3DParam.RMAX] = rmax
+    params[k3.Deposit3DParam.COLUMN_CELL] = col
+    pos = np.zeros((n, 3))
+    support = np.zeros((n, 3), dtype=np.int64)
+    state = np.zeros(int(k3.Deposit3DState.N_STATE))
+    work_f, work_i, cov = k3.make_work(n, lx, ly, rmax, col)
+    chunk = 500
+    with _interrupt.deferred(), progress_bar(total=n, desc="deposit", progress=progress, unit="sphere") as bar:
+        k = 0
+        while k < n:
+            if _interrupt.consume():
+                raise KeyboardInterrupt
+            stop = min(n, k + chunk)
+            status = k3.deposit_spheres(rad, params, pos, support, state, k, stop, work_f, work_i, cov)
+            if status != k3.Deposit3DStatus.OK:
+                raise RuntimeError(
+                    f"3D deposition kernel stopped with {k3.Deposit3DStatus(status).name} at sphere "
+                    f"{int(state[k3.Deposit3DState.N_PLACED])} (please report)")
+            bar.update(stop - k)
+            k = stop
+    stats = {"alive": int(state[k3.Deposit3DState.N_ALIVE]), "alive_max": int(state[k3.Deposit3DState.ALIVE_MAX]),
+             "overhang_placements": int(state[k3.Deposit3DState.N_OVERHANG]),
+             "candidate_searches": int(state[k3.Deposit3DState.N_RECOMPUTED])}
+    return pos, support, stats
+
+
+def _deposit_3d(radii, species, width, boundary, order, seed, tol, progress):
+    periodic = boundary == "periodic"
+    dmax = 2.0 * float(radii.max())
+    if width is None:
+        side = (float(4.0 / 3.0 * np.pi * np.sum(radii**3)) / DEFAULT_FRACTION_GUESS_3D) ** (1.0 / 3.0)
+        side = max(side, 4.5 * dmax if periodic else 1.5 * dmax)
+        width = (side, side)
+    try:
+        w = np.broadcast_to(np.asarray(width, dtype=np.float64), (2,)).astype(np.float64)
+    except (TypeError, ValueError):
+        raise InvalidInputError(f"width={width!r} must be a number or a pair (Lx, Ly) > 0") from None
+    if not np.all(np.isfinite(w)) or np.any(w <= 0):
+        raise InvalidInputError(f"width={width!r} must be finite and > 0")
+    if periodic and w.min() < 4.0 * dmax:
+        raise InvalidInputError(
+            f"width={w.min():g} is below four times the largest diameter {dmax:g}; a periodic deposit "
+            "needs L >= 4 d_max on both axes (unique minimum image of the supports)")
+    if not periodic and w.min() < dmax:
+        raise InvalidInputError(f"a sphere of diameter {dmax:g} is wider than the box width={w.min():g}")
+    ss = as_seed_sequence(seed)
+    perm = rng_from(ss).permutation(radii.size) if order == "random" else np.arange(radii.size)
+    rad = radii[perm]
+    pos, support, stats = deposit_arrays_3d(rad, w, periodic, tol, progress)
+    height = float(np.max(pos[:, 2] + rad))
+    meta = {
+        "protocol": "deposit",
+        "method": "potential_minimisation",
+        "dim": 3,
+        "boundary": boundary,
+        "order": order,
+        "width": [float(w[0]), float(w[1])],
+        "tolerance": tol,
+        "seed": seed_record(ss),
+        "n_bed": 0,
+        **stats,
+    }
+    pk = Packing(pos, rad, [w[0], w[1], height], species=species[perm], meta=meta,
+                 periodic=(periodic, periodic, False))
+    ov = pk.overlaps(1e-9)
+    if len(ov):
+        raise OverlapError(f"deposit produced {len(ov)} overlapping pair(s); worst relative gap {ov[0, 2]:.3e}")
+    return pk
+
+
 def deposit(sizes, width=None, boundary="periodic", order="random", seed=None, bed=None,
-            tolerance=DEFAULT_TOLERANCE, progress=None):
-    """2D pack of disks built by sequential deposition (potential minimisation).
+            tolerance=DEFAULT_TOLERANCE, progress=None, dim=None):
+    """Pack of disks (2D) or spheres (3D) built by sequential deposition (potential minimisation).
 
     Each disk, in turn, goes to the lowest centre height at which it rests on the floor,
     a wall or two disks of the free surface, reachable by a vertical drop; ties
@@ -156,7 +272,15 @@ def deposit(sizes, width=None, boundary="periodic", order="random", seed=None, b
     Parameters
     ----------
     sizes : SizeSet or (N,) array of radii
-        A SizeSet with ``dim=2`` (e.g. ``pp.psd.discretize(model, dim=2)``) or radii.
+        A SizeSet (``dim=2`` for disks, e.g. ``pp.psd.discretize(model, dim=2)``, or
+        ``dim=3`` for spheres) or radii.
+    dim : {2, 3}, optional
+        Default: the size set's dimension; plain radii are disks (2) unless ``dim=3``.
+        In 3D each sphere goes to the lowest position where it rests stably on the floor,
+        the walls or three spheres, reachable by a vertical drop (the geometry, the
+        stability test and the tie rule, lowest then smallest x then smallest y, are
+        described in :mod:`polypack._kernels.deposit3d`); ``width`` is then ``L`` or
+        ``(Lx, Ly)``, ``boundary`` applies to x and y, and ``bed`` is not supported.
     width : float, optional
         Box width ``W``.  Default: a roughly square deposit,
         ``sqrt(sum(pi r^2) / DEFAULT_FRACTION_GUESS)``.
@@ -196,7 +320,7 @@ def deposit(sizes, width=None, boundary="periodic", order="random", seed=None, b
     C. Voivret, F. Radjai, J.-Y. Delenne and M. S. El Youssoufi, Space-filling properties
     of polydisperse granular media, Phys. Rev. E 76, 021301 (2007).
     """
-    radii, species = _parse_radii(sizes)
+    radii, species, dim = _parse_radii(sizes, dim)
     if boundary not in ("periodic", "walls"):
         raise InvalidInputError(f"boundary={boundary!r}: allowed are 'periodic' and 'walls'")
     if order not in ("random", "given"):
@@ -207,6 +331,10 @@ def deposit(sizes, width=None, boundary="periodic", order="random", seed=None, b
         raise InvalidInputError(f"tolerance={tolerance!r} must be a number in (0, 1e-3]") from None
     if not (0 < tol <= 1e-3):
         raise InvalidInputError(f"tolerance={tolerance!r} must be in (0, 1e-3]")
+    if dim == 3:
+        if bed is not None:
+            raise InvalidInputError("bed= is supported for 2D deposits only")
+        return _deposit_3d(radii, species, width, boundary, order, seed, tol, progress)
     periodic = boundary == "periodic"
     bed_p = bed_r = None
     bed_sp = np.zeros(0, dtype=np.int64)

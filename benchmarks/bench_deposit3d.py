@@ -1,0 +1,54 @@
+"""Speed of 3D deposition (pp.deposit(..., dim=3)) for 1e5 spheres; target: under ten minutes.
+
+No PyPI package implements potential-minimisation deposition of spheres, so there is no
+peer to run back to back; the script prints the wall time per sphere, the number of alive
+(searchable) surface spheres that sets the cost per sphere, the bulk packing fraction and
+coordination, and writes JSON.  Run it with ``nice`` on a shared machine.
+
+    nice python benchmarks/bench_deposit3d.py [N] [WIDTH]
+"""
+
+import json
+import sys
+import time
+
+import numpy as np
+
+import polypack as pp
+
+
+def bulk(pk, margin=3.0):
+    z = pk.positions[:, 2]
+    a, b = margin, z.max() - margin - 1.0
+    lo = np.clip(a - z, -pk.radii, pk.radii)
+    hi = np.clip(b - z, -pk.radii, pk.radii)
+    vol = np.pi * (pk.radii**2 * (hi - lo) - (hi**3 - lo**3) / 3)
+    phi = vol.sum() / (pk.box[0] * pk.box[1] * (b - a))
+    c = pp.analysis.Contacts(tolerance=1e-7).compute(pk)
+    win = (z > a) & (z < b)
+    return float(phi), float(np.mean(np.asarray(c.per_sphere)[win]))
+
+
+def main(n=100_000, width=20.0):
+    pp.deposit(np.full(50, 0.5), width=5.0, seed=0, dim=3)  # compile outside the timing
+    rng = np.random.default_rng(1)
+    rows = []
+    for label, radii in [("equal spheres", np.full(n, 0.5)),
+                         ("uniform radii 0.45-0.55", rng.uniform(0.45, 0.55, n)),
+                         ("uniform radii 0.35-0.65", rng.uniform(0.35, 0.65, n))]:
+        t = time.perf_counter()
+        pk = pp.deposit(radii, width=width, seed=2, dim=3)
+        dt = time.perf_counter() - t
+        phi, z = bulk(pk)
+        row = {"case": label, "n": pk.n, "width": width, "seconds": dt, "ms_per_sphere": 1e3 * dt / pk.n,
+               "alive_max": pk.meta["alive_max"], "overhang_placements": pk.meta["overhang_placements"],
+               "bulk_fraction": phi, "bulk_coordination": z}
+        rows.append(row)
+        print(f"{label:26s} N={pk.n:7d} {dt:8.1f} s {1e3 * dt / pk.n:7.2f} ms/sphere alive<={pk.meta['alive_max']} "
+              f"phi={phi:.4f} z={z:.3f}", flush=True)
+    with open("bench_deposit3d.json", "w") as fh:
+        json.dump(rows, fh, indent=1)
+
+
+if __name__ == "__main__":
+    main(int(sys.argv[1]) if len(sys.argv) > 1 else 100_000, float(sys.argv[2]) if len(sys.argv) > 2 else 20.0)

@@ -1,0 +1,841 @@
+"""Sequential deposition of spheres by potential minimisation (3D), the 3D twin of :mod:`.deposit`.
+
+Kernels for :func:`polypack.generate.deposit.deposit` with 3D sizes.  Spheres are placed one at
+a time in a box with a floor ``z = 0``, an open top, and x, y axes that are periodic or have
+walls at 0 and ``L``; each sphere goes to the lowest centre height ``z`` at which it rests
+stably and which it can reach by a vertical drop from above.
+
+Geometry
+--------
+A sphere of radius ``r`` dropped at ``(x, y)`` stops with its centre at the height of the
+dilated envelope ``U_r(x, y) = max(r, max_k [z_k + sqrt((r + r_k)^2 - h_k^2)])`` (``h_k`` the
+horizontal distance to sphere ``k``, the max over spheres with ``h_k < r + r_k``): a position is
+reachable without overlap exactly when it lies on this envelope.  The envelope is a maximum of
+concave caps, so its minima lie at its vertices, where three constraints meet.  The kernel
+enumerates every vertex candidate: three spheres (the upper and lower intersection of the
+spheres of radii ``r + r_k``), two spheres and a plane, one sphere and two planes, where the
+planes are the floor ``z = r``, the walls ``x = r``, ``x = L - r`` (``y`` likewise) and, for the
+tie rule only, the periodic seams ``x = 0``, ``y = 0``.  A candidate is accepted if it is on
+the envelope (no sphere's dilated cap above it, relative tolerance ``tol``, floor and walls
+respected) and **stable**: the vertical ``e_z`` lies in the cone of its contact normals
+(``e_z = sum lambda_a n_a`` with ``lambda_a >= 0``; a floor contact is always stable).  The
+sphere goes to the lowest accepted candidate.  If there is none (a small sphere whose every
+pocket lies under an overhang), it goes to the lowest stable overlap-free candidate (counted
+in ``state[N_OVERHANG]``).
+
+**Tie rule**: candidates whose heights differ by at most ``tol * r`` are equal; the one with
+the smallest ``x`` in ``[0, Lx)`` wins, then the smallest ``y``.  A bare floor therefore fills
+from the corner ``(x, y) = (0, 0)`` (walls: ``(r, r)``) along ``x`` first.
+
+Surface structure
+-----------------
+Only *alive* spheres are searched: a sphere ``k`` is dead once every column within
+``r_k + r_max`` of its centre is covered by material above its top, ``z_k + r_k``.  A new
+sphere touching ``k`` would have its centre within ``r + r_k`` horizontally and its bottom
+below ``z_k + r_k``, i.e. below material on its own column: it would overlap or be blocked.
+So a dead sphere can never be touched again, and the topmost sphere of any column is never
+dead, which makes the envelope test over alive spheres exact.  The covered heights are kept
+as a lower bound per square cell of a fine column grid (``z_k + sqrt(r_k^2 - h_far^2)`` of
+every sphere whose disk contains the whole cell).  The alive spheres sit in a coarse grid of
+columns; the best candidate of each alive sphere (over the candidates it owns: it is the
+lowest-indexed sphere among the supports) is cached and recomputed only when the radius
+changes or a sphere lands nearby.  The work per sphere is proportional to the number of alive
+spheres (the surface, ~ ``Lx Ly / d^2``), not to the number already placed.
+
+Support codes (``support`` array, three per sphere): ``>= 0`` a sphere index, ``FLOOR``,
+``WALL_X0``, ``WALL_X1``, ``WALL_Y0``, ``WALL_Y1``, ``NO_SUPPORT`` (a periodic seam used by the tie
+rule, not a contact).
+"""
+
+from __future__ import annotations
+
+import math
+from enum import IntEnum
+
+import numpy as np
+from numba import njit
+
+FLOOR = -1
+WALL_X0 = -2
+WALL_X1 = -3
+WALL_Y0 = -4
+WALL_Y1 = -5
+NO_SUPPORT = -6
+_SEAM_X = -7  # internal: periodic seam x = 0 (reported as NO_SUPPORT)
+_SEAM_Y = -8
+
+
+class Deposit3DStatus(IntEnum):
+    """Return codes of :func:`deposit_spheres`."""
+
+    OK = 0
+    NO_POSITION = 1  # no admissible position (never for valid input)
+
+
+class Deposit3DParam(IntEnum):
+    """Slots of the ``params`` array of :func:`deposit_spheres`."""
+
+    LX = 0
+    LY = 1
+    PERIODIC_X = 2  # 1.0 periodic, 0.0 walls at 0 and LX
+    PERIODIC_Y = 3
+    TOL = 4  # relative tolerance of contact tests and of the tie rule
+    RMAX = 5  # largest radius
+    COLUMN_CELL = 6  # edge of the fine column grid of covered heights
+    N_PARAMS = 7
+
+
+class Deposit3DState(IntEnum):
+    """Slots of the float ``state`` array (outputs, accumulated across calls)."""
+
+    N_PLACED = 0
+    N_ALIVE = 1  # alive spheres at the end
+    ALIVE_MAX = 2  # most alive spheres seen
+    N_OVERHANG = 3  # spheres placed by the overhang fallback
+    N_RECOMPUTED = 4  # per-sphere candidate searches done
+    N_STATE = 5
+
+
+@njit(cache=True)
+def _mi(d, L, per):
+    if per:
+        if d > 0.5 * L:
+            d -= L
+        elif d < -0.5 * L:
+            d += L
+    return d
+
+
+@njit(cache=True)
+def _wrap(x, L, per):
+    if per:
+        x -= L * math.floor(x / L)
+        if x >= L:
+            x = 0.0
+    return x
+
+
+@njit(cache=True)
+def _cell_of(x, y, h, nx, ny):
+    cx = int(x / h[0])
+    cy = int(y / h[1])
+    if cx >= nx:
+        cx = nx - 1
+    if cx < 0:
+        cx = 0
+    if cy >= ny:
+        cy = ny - 1
+    if cy < 0:
+        cy = 0
+    return cx, cy
+
+
+@njit(cache=True)
+def _better(z, x, y, bz, bx, by, tolz):
+    """Tie rule: lower by more than ``tolz``, or equal within it and smaller x, then smaller y."""
+    if z < bz - tolz:
+        return True
+    if z > bz + tolz:
+        return False
+    if x < bx - 1e-12:
+        return True
+    if x > bx + 1e-12:
+        return False
+    return y < by
+
+
+@njit(cache=True)
+def _stable(p, r, s0, s1, s2, pos, L, per, tol, nrm):
+    """Gravity in the cone of the contact normals (a floor contact is always stable)."""
+    nrm[:, :] = 0.0
+    m = 0
+    for a in range(3):
+        s = s0 if a == 0 else (s1 if a == 1 else s2)
+        if s == FLOOR:
+            return True
+        if s >= 0:
+            d0 = _mi(p[0] - pos[s, 0], L[0], per[0])
+            d1 = _mi(p[1] - pos[s, 1], L[1], per[1])
+            d2 = p[2] - pos[s, 2]
+            dn = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            nrm[m, 0] = d0 / dn
+            nrm[m, 1] = d1 / dn
+            nrm[m, 2] = d2 / dn
+            m += 1
+        elif s == WALL_X0:
+            nrm[m, 0] = 1.0
+            m += 1
+        elif s == WALL_X1:
+            nrm[m, 0] = -1.0
+            m += 1
+        elif s == WALL_Y0:
+            nrm[m, 1] = 1.0
+            m += 1
+        elif s == WALL_Y1:
+            nrm[m, 1] = -1.0
+            m += 1
+    if m < 3:
+        return False
+    # solve N^T lambda = e_z (columns of N^T are the normals) by Cramer's rule
+    a00, a01, a02 = nrm[0, 0], nrm[1, 0], nrm[2, 0]
+    a10, a11, a12 = nrm[0, 1], nrm[1, 1], nrm[2, 1]
+    a20, a21, a22 = nrm[0, 2], nrm[1, 2], nrm[2, 2]
+    det = a00 * (a11 * a22 - a12 * a21) - a01 * (a10 * a22 - a12 * a20) + a02 * (a10 * a21 - a11 * a20)
+    if abs(det) < 1e-12:
+        return False
+    # right-hand side (0, 0, 1)
+    l0 = (a01 * a12 - a02 * a11) / det
+    l1 = -(a00 * a12 - a02 * a10) / det
+    l2 = (a00 * a11 - a01 * a10) / det
+    return l0 >= -tol and l1 >= -tol and l2 >= -tol
+
+
+@njit(cache=True)
+def _admissible(p, r, s0, s1, s2, pos, rad, L, per, tol, strict, head, nxt, hcell, ncx, ncy, rmax):
+    """``strict``: on the envelope (reachable by a vertical drop); else only free of overlaps.
+
+    Checks the floor, the walls and every alive sphere whose column is within ``r + r_max``.
+    """
+    if p[2] < r * (1.0 - tol):
+        return False
+    if not per[0] and (p[0] < r * (1.0 - tol) or p[0] > L[0] - r * (1.0 - tol)):
+        return False
+    if not per[1] and (p[1] < r * (1.0 - tol) or p[1] > L[1] - r * (1.0 - tol)):
+        return False
+    reach = r + rmax
+    rx = int(math.ceil(reach / hcell[0]))
+    ry = int(math.ceil(reach / hcell[1]))
+    cx, cy = _cell_of(p[0], p[1], hcell, ncx, ncy)
+    x_lo, x_hi = cx - rx, cx + rx
+    y_lo, y_hi = cy - ry, cy + ry
+    if per[0]:
+        if 2 * rx + 1 >= ncx:
+            x_lo, x_hi = 0, ncx - 1
+    else:
+        x_lo, x_hi = max(x_lo, 0), min(x_hi, ncx - 1)
+    if per[1]:
+        if 2 * ry + 1 >= ncy:
+            y_lo, y_hi = 0, ncy - 1
+    else:
+        y_lo, y_hi = max(y_lo, 0), min(y_hi, ncy - 1)
+    for qx in range(x_lo, x_hi + 1):
+        ax = qx % ncx
+        for qy in range(y_lo, y_hi + 1):
+            ay = qy % ncy
+            k = head[ax * ncy + ay]
+            while k >= 0:
+                if True:  # supports included: a support touched from below has its cap above p
+                    d0 = _mi(p[0] - pos[k, 0], L[0], per[0])
+                    d1 = _mi(p[1] - pos[k, 1], L[1], per[1])
+                    R = r + rad[k]
+                    h2 = d0 * d0 + d1 * d1
+                    if h2 < R * R:
+                        d2 = p[2] - pos[k, 2]
+                        if strict:
+                            # on or above k's dilated cap: above its centre and outside its sphere
+                            # (squared form: exact at an equator contact, where the cap is vertical);
+                            # a column grazing the dilated footprint (h = R) is free
+                            if h2 < R * R * (1.0 - tol) ** 2 and (d2 < -tol * R or h2 + d2 * d2 < R * R * (1.0 - tol) ** 2):
+                                return False
+                        elif h2 + d2 * d2 < R * R * (1.0 - tol) ** 2:
+                            return False
+                k = nxt[k]
+    return True
+
+
+@njit(cache=True)
+def _offer(p, r, s0, s1, s2, pos, rad, L, per, tol, strict, head, nxt, hcell, ncx, ncy, rmax, best, bsup, nrm):
+    """Test a candidate; keep it in ``best`` (z, x, y) / ``bsup`` if admissible, stable and better."""
+    p[0] = _wrap(p[0], L[0], per[0])
+    p[1] = _wrap(p[1], L[1], per[1])
+    if not _better(p[2], p[0], p[1], best[0], best[1], best[2], tol * r):
+        return
+    if not _admissible(p, r, s0, s1, s2, pos, rad, L, per, tol, strict, head, nxt, hcell, ncx, ncy, rmax):
+        return
+    if not _stable(p, r, s0, s1, s2, pos, L, per, tol, nrm):
+        return
+    best[0] = p[2]
+    best[1] = p[0]
+    best[2] = p[1]
+    bsup[0] = s0
+    bsup[1] = s1
+    bsup[2] = s2
+
+
+@njit(cache=True)
+def _plane_value(code, r, L):
+    """(axis, value) of a plane constraint for a sphere of radius r."""
+    if code == FLOOR:
+        return 2, r
+    if code == WALL_X0:
+        return 0, r
+    if code == WALL_X1:
+        return 0, L[0] - r
+    if code == WALL_Y0:
+        return 1, r
+    if code == WALL_Y1:
+        return 1, L[1] - r
+    if code == _SEAM_X:
+        return 0, 0.0
+    return 1, 0.0  # _SEAM_Y
+
+
+@njit(cache=True)
+def _floor_rho2(R, zk, r):
+    """Squared radius of the circle bounding, in the floor plane ``z = r``, where sphere ``k`` blocks the drop.
+
+    Below the new centre level (``z_k < r``) it is the contact circle; above it the drop is
+    blocked over the whole dilated footprint, so the floor is free from ``h = R`` on (the
+    new sphere then grazes ``k``'s vertical tangent cylinder without touching it).
+    """
+    if zk >= r:
+        return R * R
+    return R * R - (r - zk) ** 2
+
+
+@njit(cache=True)
+def _report(code):
+    return NO_SUPPORT if code <= _SEAM_X else code
+
+
+@njit(cache=True)
+def _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, nxt, hcell, ncx, ncy, rmax,
+                   best, bsup, nb, nrm):
+    """Best candidate owned by alive sphere ``s`` (it has the smallest index among the sphere supports)."""
+    best[0] = np.inf
+    best[1] = np.inf
+    best[2] = np.inf
+    bsup[0] = NO_SUPPORT
+    bsup[1] = NO_SUPPORT
+    bsup[2] = NO_SUPPORT
+    p = np.empty(3)
+    base = np.empty(3)
+    rel = np.empty(3)
+    off = np.empty(3)
+    Rs = r + rad[s]
+    # neighbours j > s that can touch the same new sphere (relative vectors to s)
+    reach = rad[s] + rmax + 2.0 * r
+    rx = int(math.ceil(reach / hcell[0]))
+    ry = int(math.ceil(reach / hcell[1]))
+    cx, cy = _cell_of(pos[s, 0], pos[s, 1], hcell, ncx, ncy)
+    x_lo, x_hi = cx - rx, cx + rx
+    y_lo, y_hi = cy - ry, cy + ry
+    if per[0]:
+        if 2 * rx + 1 >= ncx:
+            x_lo, x_hi = 0, ncx - 1
+    else:
+        x_lo, x_hi = max(x_lo, 0), min(x_hi, ncx - 1)
+    if per[1]:
+        if 2 * ry + 1 >= ncy:
+            y_lo, y_hi = 0, ncy - 1
+    else:
+        y_lo, y_hi = max(y_lo, 0), min(y_hi, ncy - 1)
+    m = 0
+    for qx in range(x_lo, x_hi + 1):
+        ax = qx % ncx
+        for qy in range(y_lo, y_hi + 1):
+            ay = qy % ncy
+            k = head[ax * ncy + ay]
+            while k >= 0:
+                if k > s:
+                    d0 = _mi(pos[k, 0] - pos[s, 0], L[0], per[0])
+                    d1 = _mi(pos[k, 1] - pos[s, 1], L[1], per[1])
+                    d2 = pos[k, 2] - pos[s, 2]
+                    lim = Rs + r + rad[k]
+                    if d0 * d0 + d1 * d1 + d2 * d2 <= lim * lim:
+                        if m < nb.shape[0]:
+                            nb[m, 0] = d0
+                            nb[m, 1] = d1
+                            nb[m, 2] = d2
+                            nb[m, 3] = r + rad[k]
+                            nb[m, 4] = k
+                            m += 1
+                k = nxt[k]
+    sx = pos[s, 0]
+    sy = pos[s, 1]
+    sz = pos[s, 2]
+    # --- three spheres: s, j, k
+    for a in range(m):
+        ax_ = nb[a, 0]
+        ay_ = nb[a, 1]
+        az_ = nb[a, 2]
+        Ra = nb[a, 3]
+        d = math.sqrt(ax_ * ax_ + ay_ * ay_ + az_ * az_)
+        if d <= 0.0 or d > Rs + Ra:
+            continue
+        ex0, ex1, ex2 = ax_ / d, ay_ / d, az_ / d
+        for b in range(a + 1, m):
+            bx_ = nb[b, 0]
+            by_ = nb[b, 1]
+            bz_ = nb[b, 2]
+            Rb = nb[b, 3]
+            i_ = ex0 * bx_ + ex1 * by_ + ex2 * bz_
+            t0 = bx_ - i_ * ex0
+            t1 = by_ - i_ * ex1
+            t2 = bz_ - i_ * ex2
+            jn = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+            if jn < 1e-12 * (Rs + Ra + Rb):
+                continue
+            ey0, ey1, ey2 = t0 / jn, t1 / jn, t2 / jn
+            ez0 = ex1 * ey2 - ex2 * ey1
+            ez1 = ex2 * ey0 - ex0 * ey2
+            ez2 = ex0 * ey1 - ex1 * ey0
+            u = (Rs * Rs - Ra * Ra + d * d) / (2.0 * d)
+            v = (Rs * Rs - Rb * Rb + i_ * i_ + jn * jn) / (2.0 * jn) - i_ * u / jn
+            w2 = Rs * Rs - u * u - v * v
+            if w2 < 0.0:
+                continue
+            w = math.sqrt(w2)
+            for sg in (1.0, -1.0):
+                p[0] = sx + u * ex0 + v * ey0 + sg * w * ez0
+                p[1] = sy + u * ex1 + v * ey1 + sg * w * ez1
+                p[2] = sz + u * ex2 + v * ey2 + sg * w * ez2
+                _offer(p, r, s, int(nb[a, 4]), int(nb[b, 4]), pos, rad, L, per, tol, strict, head, nxt, hcell,
+                       ncx, ncy, rmax, best, bsup, nrm)
+                if w == 0.0:
+                    break
+    # --- two spheres and a plane: s, j, plane
+    for q in range(nplanes):
+        code = planes[q]
+        axis, val = _plane_value(code, r, L)
+        o1 = (axis + 1) % 3
+        o2 = (axis + 2) % 3
+        if axis == 2:
+            o1, o2 = 0, 1
+        base[0] = sx
+        base[1] = sy
+        base[2] = sz
+        ds = val - base[axis]
+        if axis < 2:
+            if per[axis]:
+                ds = _mi(ds, L[axis], True)
+        rho_s2 = Rs * Rs - ds * ds
+        sup_s = s
+        if code == FLOOR:
+            rho_s2 = _floor_rho2(Rs, sz, r)
+            if sz > r * (1.0 + tol):
+                sup_s = NO_SUPPORT  # grazing, not a contact
+        if rho_s2 < 0.0:
+            continue
+        for a in range(m):
+            rel[0] = nb[a, 0]
+            rel[1] = nb[a, 1]
+            rel[2] = nb[a, 2]
+            Ra = nb[a, 3]
+            da = ds - rel[axis]
+            rho_a2 = Ra * Ra - da * da
+            sup_a = int(nb[a, 4])
+            if code == FLOOR:
+                rho_a2 = _floor_rho2(Ra, sz + rel[2], r)
+                if sz + rel[2] > r * (1.0 + tol):
+                    sup_a = NO_SUPPORT
+            if rho_a2 < 0.0:
+                continue
+            c1 = rel[o1]
+            c2 = rel[o2]
+            dd = math.sqrt(c1 * c1 + c2 * c2)
+            if dd <= 0.0:
+                continue
+            u = (rho_s2 - rho_a2 + dd * dd) / (2.0 * dd)
+            h2 = rho_s2 - u * u
+            if h2 < 0.0:
+                continue
+            hh = math.sqrt(h2)
+            for sg in (1.0, -1.0):
+                off[axis] = ds
+                off[o1] = (u * c1 - sg * hh * c2) / dd
+                off[o2] = (u * c2 + sg * hh * c1) / dd
+                p[0] = sx + off[0]
+                p[1] = sy + off[1]
+                p[2] = sz + off[2]
+                _offer(p, r, sup_s, sup_a, code, pos, rad, L, per, tol, strict, head, nxt, hcell,
+                       ncx, ncy, rmax, best, bsup, nrm)
+                if hh == 0.0:
+                    break
+    # --- one sphere and two planes: s, plane, plane
+    for q1 in range(nplanes):
+        for q2 in range(q1 + 1, nplanes):
+            a1, v1 = _plane_value(planes[q1], r, L)
+            a2, v2 = _plane_value(planes[q2], r, L)
+            if a1 == a2:
+                continue
+            a3 = 3 - a1 - a2
+            base[0] = sx
+            base[1] = sy
+            base[2] = sz
+            dd1 = v1 - base[a1]
+            dd2 = v2 - base[a2]
+            if a1 < 2 and per[a1]:
+                dd1 = _mi(dd1, L[a1], True)
+            if a2 < 2 and per[a2]:
+                dd2 = _mi(dd2, L[a2], True)
+            rest = Rs * Rs - dd1 * dd1 - dd2 * dd2
+            sup_s = s
+            if planes[q1] == FLOOR or planes[q2] == FLOOR:
+                other = dd2 if planes[q1] == FLOOR else dd1
+                rest = _floor_rho2(Rs, sz, r) - other * other
+                if sz > r * (1.0 + tol):
+                    sup_s = NO_SUPPORT
+            if rest < 0.0:
+                continue
+            rt = math.sqrt(rest)
+            off[a1] = dd1
+            off[a2] = dd2
+            for sg in (1.0, -1.0):
+                off[a3] = sg * rt
+                p[0] = sx + off[0]
+                p[1] = sy + off[1]
+                p[2] = sz + off[2]
+                _offer(p, r, sup_s, planes[q1], planes[q2], pos, rad, L, per, tol, strict, head, nxt, hcell,
+                       ncx, ncy, rmax, best, bsup, nrm)
+                if rt == 0.0:
+                    break
+
+
+@njit(cache=True)
+def _global_candidates(r, pos, rad, L, per, tol, strict, planes, nplanes, head, nxt, hcell, ncx, ncy, rmax,
+                       best, bsup, nrm):
+    """Candidates without a sphere: three planes (the floor corner of the tie rule)."""
+    best[0] = np.inf
+    best[1] = np.inf
+    best[2] = np.inf
+    p = np.empty(3)
+    for q1 in range(nplanes):
+        for q2 in range(q1 + 1, nplanes):
+            for q3 in range(q2 + 1, nplanes):
+                a1, v1 = _plane_value(planes[q1], r, L)
+                a2, v2 = _plane_value(planes[q2], r, L)
+                a3, v3 = _plane_value(planes[q3], r, L)
+                if a1 == a2 or a1 == a3 or a2 == a3:
+                    continue
+                p[a1] = v1
+                p[a2] = v2
+                p[a3] = v3
+                _offer(p, r, planes[q1], planes[q2], planes[q3], pos, rad, L, per, tol, strict, head, nxt,
+                       hcell, ncx, ncy, rmax, best, bsup, nrm)
+
+
+@njit(cache=True)
+def _link(i, c, head, nxt, prv, cell):
+    h0 = head[c]
+    nxt[i] = h0
+    prv[i] = -1
+    if h0 >= 0:
+        prv[h0] = i
+    head[c] = i
+    cell[i] = c
+
+
+@njit(cache=True)
+def _unlink(i, head, nxt, prv, cell):
+    c = cell[i]
+    p = prv[i]
+    q = nxt[i]
+    if p >= 0:
+        nxt[p] = q
+    else:
+        head[c] = q
+    if q >= 0:
+        prv[q] = p
+    nxt[i] = -1
+    prv[i] = -1
+    cell[i] = -1
+
+
+@njit(cache=True)
+def _cover(p, r, cov, hc, mx, my, L, per, rmin):
+    """Raise the blocked-height lower bound of the fine cells near a new sphere.
+
+    ``cov[c]`` is a height ``H`` such that above every column of cell ``c`` some material
+    higher than ``H`` lies within ``rmin`` horizontally: a sphere (radius ``>= rmin``) whose
+    centre is on that column cannot come below ``H``.  A sphere at horizontal distance at most
+    ``f`` from every column of the cell gives ``H = z + sqrt(r^2 - max(f - rmin, 0)^2)``.
+    """
+    rm = rmin * (1.0 - 1e-9)
+    R = r + rm
+    rx = int(math.ceil(R / hc[0])) + 1
+    ry = int(math.ceil(R / hc[1])) + 1
+    cx = int(p[0] / hc[0])
+    cy = int(p[1] / hc[1])
+    for qx in range(cx - rx, cx + rx + 1):
+        if not per[0] and (qx < 0 or qx >= mx):
+            continue
+        ax = qx % mx
+        dx = abs(_mi((ax + 0.5) * hc[0] - p[0], L[0], per[0])) + 0.5 * hc[0]
+        if dx >= R:
+            continue
+        for qy in range(cy - ry, cy + ry + 1):
+            if not per[1] and (qy < 0 or qy >= my):
+                continue
+            ay = qy % my
+            dy = abs(_mi((ay + 0.5) * hc[1] - p[1], L[1], per[1])) + 0.5 * hc[1]
+            f = math.sqrt(dx * dx + dy * dy)
+            if f < R:
+                e = max(f - rm, 0.0)
+                v = p[2] + math.sqrt(max(r * r - e * e, 0.0))
+                if v > cov[ax * my + ay]:
+                    cov[ax * my + ay] = v
+
+
+@njit(cache=True)
+def _min_cover(k, pos, rad, cov, hc, mx, my, L, per, rmax):
+    """Smallest blocked height ``cov`` over the columns within ``r_k + r_max`` of sphere ``k``.
+
+    A new sphere touching ``k`` has its centre on one of these columns, so its height is at
+    least this value (a lower bound on every candidate ``k`` owns), and if the value exceeds
+    ``z_k + r_k + r_max`` (the highest centre touching ``k``) ``k`` can never be touched
+    again: it is dead.
+    """
+    out = np.inf
+    R = rad[k] + rmax
+    rx = int(math.ceil(R / hc[0])) + 1
+    ry = int(math.ceil(R / hc[1])) + 1
+    cx = int(pos[k, 0] / hc[0])
+    cy = int(pos[k, 1] / hc[1])
+    for qx in range(cx - rx, cx + rx + 1):
+        if not per[0] and (qx < 0 or qx >= mx):
+            continue
+        ax = qx % mx
+        dx = max(abs(_mi((ax + 0.5) * hc[0] - pos[k, 0], L[0], per[0])) - 0.5 * hc[0], 0.0)
+        if dx > R:
+            continue
+        for qy in range(cy - ry, cy + ry + 1):
+            if not per[1] and (qy < 0 or qy >= my):
+                continue
+            ay = qy % my
+            dy = max(abs(_mi((ay + 0.5) * hc[1] - pos[k, 1], L[1], per[1])) - 0.5 * hc[1], 0.0)
+            if dx * dx + dy * dy <= R * R and cov[ax * my + ay] < out:
+                out = cov[ax * my + ay]
+    return out
+
+
+@njit(cache=True)
+def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_i, cov):
+    """Place spheres ``start .. stop-1`` (radii ``rad``, in order) on the deposit of spheres ``0 .. start-1``.
+
+    Parameters
+    ----------
+    rad : (N,) float64
+        Radii in deposition order.
+    params : (N_PARAMS,) float64
+        Slots of :class:`Deposit3DParam`.
+    pos : (N, 3) float64, in/out
+        Centres; rows ``< start`` are the deposit so far, rows ``start .. stop-1`` are written.
+    support : (N, 3) int64, in/out
+        Three support codes per sphere (see the module docstring).
+    state : (N_STATE,) float64, in/out
+        Slots of :class:`Deposit3DState`.
+    start, stop : int
+        Range to place (chunks let the caller show progress and stop on Ctrl-C).
+    work_f : (N, 5) float64, in/out
+        Per-sphere cache: best owned candidate ``z, x, y``, the radius it is for, and a lower
+        bound on the height of every candidate it owns (:func:`_min_cover`); the spheres are
+        searched in the order of that bound, and the search stops once it exceeds the best
+        height found.
+    work_i : (N + ncx * ncy + N, ...) int64, in/out
+        Packed integer state: see :func:`make_work`.
+    cov : (mx * my,) float64, in/out
+        Covered-height lower bound of the fine column grid.
+
+    Returns
+    -------
+    int
+        :class:`Deposit3DStatus` code.
+    """
+    n = rad.shape[0]
+    L = np.empty(2)
+    L[0] = params[Deposit3DParam.LX]
+    L[1] = params[Deposit3DParam.LY]
+    per = np.empty(2, np.bool_)
+    per[0] = params[Deposit3DParam.PERIODIC_X] > 0.5
+    per[1] = params[Deposit3DParam.PERIODIC_Y] > 0.5
+    tol = params[Deposit3DParam.TOL]
+    rmax = params[Deposit3DParam.RMAX]
+    hcol = params[Deposit3DParam.COLUMN_CELL]
+    rmin = rad.min()
+    ncx = max(1, int(L[0] // (2.0 * rmax)))
+    ncy = max(1, int(L[1] // (2.0 * rmax)))
+    hcell = np.array([L[0] / ncx, L[1] / ncy])
+    mx = max(1, int(L[0] // hcol))
+    my = max(1, int(L[1] // hcol))
+    hc = np.array([L[0] / mx, L[1] / my])
+    # integer work layout: head (ncx*ncy) | nxt (n) | prv (n) | cell (n) | alive_list (n) | alive_pos (n)
+    #                      | bsup (3n) | n_alive (1)
+    o_head = 0
+    o_nxt = ncx * ncy
+    o_prv = o_nxt + n
+    o_cell = o_prv + n
+    o_al = o_cell + n
+    o_ap = o_al + n
+    o_bs = o_ap + n
+    o_na = o_bs + 3 * n
+    head = work_i[o_head:o_nxt]
+    nxt = work_i[o_nxt:o_prv]
+    prv = work_i[o_prv:o_cell]
+    cell = work_i[o_cell:o_al]
+    alive = work_i[o_al:o_ap]
+    apos = work_i[o_ap:o_bs]
+    bsup_all = work_i[o_bs:o_na].reshape((n, 3))
+    n_alive = work_i[o_na]
+    planes = np.empty(6, np.int64)
+    nplanes = 0
+    planes[nplanes] = FLOOR
+    nplanes += 1
+    if per[0]:
+        planes[nplanes] = _SEAM_X
+        nplanes += 1
+    else:
+        planes[nplanes] = WALL_X0
+        planes[nplanes + 1] = WALL_X1
+        nplanes += 2
+    if per[1]:
+        planes[nplanes] = _SEAM_Y
+        nplanes += 1
+    else:
+        planes[nplanes] = WALL_Y0
+        planes[nplanes + 1] = WALL_Y1
+        nplanes += 2
+    best = np.empty(3)
+    bsup = np.empty(3, np.int64)
+    gbest = np.empty(3)
+    gsup = np.empty(3, np.int64)
+    nb = np.empty((max(n, 16), 5))
+    nrm = np.zeros((3, 3))
+    p = np.empty(3)
+    status = 0
+    for i in range(start, stop):
+        r = rad[i]
+        gbest[0] = np.inf
+        gbest[1] = np.inf
+        gbest[2] = np.inf
+        for strict in (True, False):
+            _global_candidates(r, pos, rad, L, per, tol, strict, planes, nplanes, head, nxt, hcell, ncx, ncy, rmax,
+                               gbest, gsup, nrm)
+            if strict:
+                keys = np.empty(n_alive)
+                for q in range(n_alive):
+                    keys[q] = work_f[alive[q], 4]
+                order = np.argsort(keys)
+            else:
+                order = np.arange(n_alive)
+            for qq in range(n_alive):
+                s = alive[order[qq]]
+                if strict and work_f[s, 4] > gbest[0] + tol * r:
+                    break  # every remaining candidate lies above the best one
+                if strict and work_f[s, 3] == r:
+                    best[0] = work_f[s, 0]
+                    best[1] = work_f[s, 1]
+                    best[2] = work_f[s, 2]
+                    bsup[0] = bsup_all[s, 0]
+                    bsup[1] = bsup_all[s, 1]
+                    bsup[2] = bsup_all[s, 2]
+                else:
+                    _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, nxt, hcell, ncx,
+                                   ncy, rmax, best, bsup, nb, nrm)
+                    state[Deposit3DState.N_RECOMPUTED] += 1
+                    if strict:
+                        work_f[s, 0] = best[0]
+                        work_f[s, 1] = best[1]
+                        work_f[s, 2] = best[2]
+                        work_f[s, 3] = r
+                        bsup_all[s, 0] = bsup[0]
+                        bsup_all[s, 1] = bsup[1]
+                        bsup_all[s, 2] = bsup[2]
+                if best[0] < np.inf and _better(best[0], best[1], best[2], gbest[0], gbest[1], gbest[2], tol * r):
+                    gbest[0] = best[0]
+                    gbest[1] = best[1]
+                    gbest[2] = best[2]
+                    gsup[0] = bsup[0]
+                    gsup[1] = bsup[1]
+                    gsup[2] = bsup[2]
+            if gbest[0] < np.inf:
+                if not strict:
+                    state[Deposit3DState.N_OVERHANG] += 1
+                break
+        if not gbest[0] < np.inf:
+            status = 1
+            state[Deposit3DState.N_PLACED] = i
+            break
+        pos[i, 0] = gbest[1]
+        pos[i, 1] = gbest[2]
+        pos[i, 2] = gbest[0]
+        for a in range(3):
+            support[i, a] = _report(gsup[a])
+        # surface update: cover, invalidate caches nearby, bury dead spheres, add the new one
+        p[0] = pos[i, 0]
+        p[1] = pos[i, 1]
+        p[2] = pos[i, 2]
+        _cover(p, r, cov, hc, mx, my, L, per, rmin)
+        cx, cy = _cell_of(p[0], p[1], hcell, ncx, ncy)
+        _link(i, cx * ncy + cy, head, nxt, prv, cell)
+        alive[n_alive] = i
+        apos[i] = n_alive
+        n_alive += 1
+        work_f[i, 3] = -1.0
+        reach = r + 3.0 * rmax
+        rx = int(math.ceil(reach / hcell[0]))
+        ry = int(math.ceil(reach / hcell[1]))
+        x_lo, x_hi = cx - rx, cx + rx
+        y_lo, y_hi = cy - ry, cy + ry
+        if per[0]:
+            if 2 * rx + 1 >= ncx:
+                x_lo, x_hi = 0, ncx - 1
+        else:
+            x_lo, x_hi = max(x_lo, 0), min(x_hi, ncx - 1)
+        if per[1]:
+            if 2 * ry + 1 >= ncy:
+                y_lo, y_hi = 0, ncy - 1
+        else:
+            y_lo, y_hi = max(y_lo, 0), min(y_hi, ncy - 1)
+        for qx in range(x_lo, x_hi + 1):
+            ax = qx % ncx
+            for qy in range(y_lo, y_hi + 1):
+                ay = qy % ncy
+                k = head[ax * ncy + ay]
+                while k >= 0:
+                    k_next = nxt[k]
+                    d0 = _mi(pos[k, 0] - p[0], L[0], per[0])
+                    d1 = _mi(pos[k, 1] - p[1], L[1], per[1])
+                    if d0 * d0 + d1 * d1 <= (rad[k] + reach) ** 2:
+                        work_f[k, 3] = -1.0  # cache invalid
+                        low = _min_cover(k, pos, rad, cov, hc, mx, my, L, per, rmax)
+                        work_f[k, 4] = low
+                        if low > pos[k, 2] + rad[k] + rmax:
+                            _unlink(k, head, nxt, prv, cell)
+                            q = apos[k]
+                            last = alive[n_alive - 1]
+                            alive[q] = last
+                            apos[last] = q
+                            n_alive -= 1
+                    k = k_next
+        if n_alive > state[Deposit3DState.ALIVE_MAX]:
+            state[Deposit3DState.ALIVE_MAX] = n_alive
+        state[Deposit3DState.N_PLACED] = i + 1
+    work_i[o_na] = n_alive
+    state[Deposit3DState.N_ALIVE] = n_alive
+    return status
+
+
+def make_work(n, lx, ly, rmax, column_cell):
+    """Work arrays of :func:`deposit_spheres` for ``n`` spheres: ``(work_f, work_i, cov)``."""
+    ncx = max(1, int(lx // (2.0 * rmax)))
+    ncy = max(1, int(ly // (2.0 * rmax)))
+    mx = max(1, int(lx // column_cell))
+    my = max(1, int(ly // column_cell))
+    work_f = np.full((n, 5), -1.0)
+    work_i = np.full(ncx * ncy + 8 * n + 1, -1, np.int64)
+    work_i[-1] = 0
+    cov = np.zeros(mx * my)
+    return work_f, work_i, cov
+
+
+def warmup():
+    """Compile the kernel on a tiny input."""
+    n = 30
+    rad = np.full(n, 0.5)
+    params = np.array([5.0, 5.0, 1.0, 0.0, 1e-10, 0.5, 0.25])
+    pos = np.zeros((n, 3))
+    support = np.zeros((n, 3), np.int64)
+    state = np.zeros(Deposit3DState.N_STATE)
+    work_f, work_i, cov = make_work(n, 5.0, 5.0, 0.5, 0.25)
+    deposit_spheres(rad, params, pos, support, state, 0, n, work_f, work_i, cov)
