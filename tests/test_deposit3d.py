@@ -131,7 +131,7 @@ def test_random_deposit_coordination_six_and_fraction():
     """Slightly polydisperse spheres in random order: each sphere off the floor rests on three earlier
     ones, so the bulk mean coordination is 2 x 3 = 6 (accidental extra contacts have measure zero).
     Random drop-and-roll deposits (Visscher & Bolsterli 1972) have z = 6 and φ ≈ 0.58; the global
-    minimum rule here fills the lowest pockets first and is denser (measured 0.60–0.62)."""
+    minimum rule here fills the lowest pockets first and is denser (measured 0.607, z = 5.99)."""
     rng = np.random.default_rng(11)
     rad = rng.uniform(0.45, 0.55, 1500)
     pk = pp.deposit(rad, width=6.0, seed=2, dim=3)
