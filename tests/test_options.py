@@ -13,7 +13,8 @@ from polypack.generate import PackTuning, ShakeTuning
 NOT_IN_SCRM = {
     "pack": {"sizes", "volume_fraction", "seed", "progress", "species",   # scrm's own / from the sizes
              "max_collisions", "max_seconds", "max_events",                # budgets of a single growth
-             "jammed_reference_fraction", "tuning"},                       # scrm grows to numbers; pack_tuning
+             "jammed_reference_fraction", "tuning",                        # scrm grows to numbers; pack_tuning
+             "dim"},                                                       # shaking is 3D only
     "shake": {"packing", "global_shakes", "seed", "progress", "callback", "tuning"},  # scrm's own; shake_tuning
 }
 
