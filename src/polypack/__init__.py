@@ -61,12 +61,14 @@ __all__ = [
     "generate",
     "neighbors",
     "mechanics",
+    "report",
+    "view",
     "__version__",
 ]
 
 # Lazy attributes: subpackages and generator functions are imported on first use, so
 # ``import polypack`` stays fast and numba kernels compile only when needed.
-_LAZY_MODULES = {"io", "psd", "analysis", "generate", "neighbors", "ensemble", "study", "mechanics"}
+_LAZY_MODULES = {"io", "psd", "analysis", "generate", "neighbors", "ensemble", "study", "mechanics", "report"}
 _LAZY_FUNCS = {
     "pack": ("polypack.generate.lubachevsky", "pack"),
     "shake": ("polypack.generate.shake", "shake"),
@@ -74,6 +76,7 @@ _LAZY_FUNCS = {
     "deposit": ("polypack.generate.deposit", "deposit"),
     "brownian": ("polypack.generate.brownian", "brownian"),
     "vem": ("polypack.generate.vem", "vem"),
+    "view": ("polypack.report.viewer", "view"),
 }
 
 

@@ -24,6 +24,8 @@ def register(app: typer.Typer) -> None:
         progress: Optional[bool] = typer.Option(
             None, "--progress/--no-progress", help="Progress bar (default: on a terminal)."
         ),
+        report: bool = typer.Option(True, "--report/--no-report", help="Write OUT/report.html (3D viewer, tables, "
+                                    "figures; with [output] plots also OUT/figures/)."),
     ):
         """Run a study: P seeded realizations, one GSD + record each, ensemble curves, summary table, plots.
 
@@ -67,6 +69,13 @@ def register(app: typer.Typer) -> None:
             )
             raise SystemExit(130) from None
         typer.echo(res.summary())
+        if report:
+            from ..report import report as write_report
+
+            plots = bool(st.data["output"]["plots"])
+            path = write_report(out_dir, out_dir / "report.html", plots_dir=(out_dir / "figures") if plots else None,
+                                formats=(st.data["output"]["plot_format"],) if plots else ())
+            typer.echo(f"  {'report':<20s} {path}")
 
 
 def _run_sweep(study, out, workers, scheduler, dask, check, force, wait, progress):

@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy import stats
 
 from ..errors import InvalidInputError
 
@@ -101,6 +100,8 @@ def skewness(obj) -> float:
     """Skewness of the radii by number (third standardised central moment)."""
     if _kind(obj) != "model":
         r = _as_set(obj).radii
+        from scipy import stats  # imported here: scipy.stats takes seconds to import
+
         return float(stats.skew(r)) if r.size > 2 and np.ptp(r) > 1e-12 * r.max() else 0.0
     m1, m2, m3 = (moment(obj, k) for k in (1, 2, 3))
     var = m2 - m1 * m1
