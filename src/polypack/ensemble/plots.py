@@ -151,12 +151,12 @@ def partial_rdf_figure(runs, *, theory=False, title=""):
                 r = _arr(runs[0]["entry"]["x"])
                 R = scaled_coordinate(r, a0[k], a0[m])
                 ax.plot(R, well_stirred_partial(r, a0[k], a0[m]), color="0.45", lw=0.9, ls=":",
-                        label="well-stirred, Eq. (19)")
+                        label="well-stirred (seed 000 eq. 19)")
                 cf = np.asarray(runs[0].get("volume_fractions") or [], dtype=np.float64)
                 if cf.size == ns and cf.sum() < 1:
                     gc = percus_yevick_mixture_contact(a0, cf)
                     ax.plot(R, willis_partial(r, a0[k], a0[m], gc[k, m]), color="k", lw=0.9, ls="--",
-                            label=f"Willis form, Eq. (20), PY contact {gc[k, m]:.2f}")
+                            label=f"Willis form (eq. 20), PY contact {gc[k, m]:.2f}")
             ax.axhline(1.0, color="0.7", lw=0.5, zorder=0)
             ax.set_xlim(left=1.5 if ns > 1 else 1.5)
             sym = f"g_{{{k}{m}}}(R_{{{k}{m}}})" if ns > 1 else "g(R)"
@@ -297,7 +297,7 @@ def pores_figure(entry, *, r0, fits=None, title=""):
     fits : dict, optional
         ``{"seed": (a, a_band, b, b_band), "normalized": (...)}``: ensemble means of the
         fitted parameters with their 95 % half-widths (NaN when unknown); ``"seed"`` is
-        Eq. (6) as printed, ``1 - erf((r/r0 - b)/(a sqrt 2))``, ``"normalized"`` the
+        Eq. (6) of 003_873b69fc71c74cf6.txt as printed, ``1 - erf((r/r0 - b)/(a sqrt 2))``, ``"normalized"`` the
         Gaussian survival ``erfc((r/r0 - b)/(a sqrt 2)) / 2``.
     """
     import matplotlib.pyplot as plt
@@ -309,7 +309,7 @@ def pores_figure(entry, *, r0, fits=None, title=""):
         x = _arr(entry["x"]) / float(r0)
         _band(ax, x, entry["curves"]["survival"], _series_label("measured", entry.get("n_realizations", 1)),
               color="C0")
-        for name, fn, ls, col, words in (("seed", doh_seed, "--", "k", "Eq. (6) of seed 003"),
+        for name, fn, ls, col, words in (("seed", doh_seed, "--", "k", "seed 003 eq. 6"),
                                          ("normalized", doh_normalized, ":", "C3", "Gaussian survival")):
             f = (fits or {}).get(name)
             if not f or not np.isfinite(f[0]):

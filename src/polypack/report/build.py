@@ -55,8 +55,8 @@ _WORDS = {
     "contacts.coordination_without_rattlers": "coordination without rattlers",
     "contacts.rattler_fraction": "fraction of rattlers",
     "pores.void_fraction": "void fraction (porosity)",
-    "pores.fit.seed.a": "DOH a, Eq. (6) of seed 003 as printed",
-    "pores.fit.seed.b": "b, Eq. (6) of seed 003 as printed",
+    "pores.fit.seed.a": "DOH a, Eq. (6) of 003_873b69fc71c74cf6.txt as printed",
+    "pores.fit.seed.b": "b, Eq. (6) of 003_873b69fc71c74cf6.txt as printed",
     "pores.fit.normalized.a": "DOH a, Gaussian survival form",
     "pores.fit.normalized.b": "b, Gaussian survival form",
     "pores.fit.r0": "r0 of the DOH fit (length units)",
@@ -185,7 +185,7 @@ def pack_report_html(path, *, color=None, fields=None, tolerance=0.01, plots_dir
 {_table(("species", "N", "mean radius a (length units)", "volume fraction c_k"), sp_rows)}
 <h2 id="plots">Sizes</h2>
 {_figure(svg, "Grading curve of the pack's sizes: cumulative volume fraction h(d) of spheres of diameter below d, "
-         f"with Hazen's d10 = {hz['d10']:.4g}, d30 = {hz['d30']:.4g}, d60 = {hz['d60']:.4g} (Eq. (18) of seed 001).")}
+         f"with Hazen's d10 = {hz['d10']:.4g}, d30 = {hz['d30']:.4g}, d60 = {hz['d60']:.4g} (Eq. (18) of 001_ad5bae0acea940c4.txt).")}
 <h2 id="provenance">Provenance</h2>
 {_meta_html(pk.meta)}
 </main>"""
@@ -341,8 +341,9 @@ def run_figures(run: RunFolder, packs, *, theory=False, compare=(), plots_dir=No
                "R_km = (r − a_k)/a_m + 1 of seed 000 §5.3 (contact at R_km = 2; Figs. 9–11 of seed 000), "
                f"{band}.")
         if theory:
-            cap += (" Dotted: well-stirred approximation, Eq. (19) of seed 000; dashed: Willis form, Eq. (20), "
-                    "with the Percus–Yevick mixture contact values of Eqs. (21)–(22).")
+            cap += (" Dotted: well-stirred approximation, Eq. (19) of 000_2cedc098acbd866b.txt; dashed: Willis form, "
+                    "Eq. (20) of 000_2cedc098acbd866b.txt, with the Percus–Yevick mixture contact values of "
+                    "Eq. (21) of 000_2cedc098acbd866b.txt and Eq. (22) of 000_2cedc098acbd866b.txt.")
         if len(runs) > 1:
             cap += " Runs compared: " + ", ".join(r["label"] for r in runs) + "."
         emit("rdf_partials_R", fig, cap)
@@ -380,8 +381,8 @@ def run_figures(run: RunFolder, packs, *, theory=False, compare=(), plots_dir=No
         if r0s:
             fig = P.pores_figure(an["pores"], r0=float(np.mean(r0s)), fits=fits)
             emit("pores", fig, "Pore-size survival P(r_P > r): probability that a random point of the void is "
-                 "farther than r from every sphere surface, against r/r0 (seed 003 §2.3), with the fit of Eq. (6) of "
-                 f"seed 003 (a: degree of heterogeneity); {band}; a and b: ensemble mean ± 95 % half-width.")
+                 "farther than r from every sphere surface, against r/r0 (seed 003 §2.3), with the fit of "
+                 f"Eq. (6) of 003_873b69fc71c74cf6.txt (a: degree of heterogeneity); {band}; a and b: ensemble mean ± 95 % half-width.")
     if pk0 is not None:
         try:
             from ..ensemble.stages import make_model
@@ -393,7 +394,7 @@ def run_figures(run: RunFolder, packs, *, theory=False, compare=(), plots_dir=No
         emit("grading", fig, "Grading curve: cumulative volume fraction h(d) of spheres with diameter below d, of the "
              f"study's size-distribution model and of realization {run.records[0]['index']}'s sizes, with Hazen's "
              f"d10 = {hz['d10']:.4g}, d30 = {hz['d30']:.4g}, d60 = {hz['d60']:.4g}, Cu = {hz['Cu']:.3g}, "
-             f"Cc = {hz['Cc']:.3g} (Eq. (18) of seed 001).")
+             f"Cc = {hz['Cc']:.3g} (Eq. (18) of 001_ad5bae0acea940c4.txt).")
     done = {"rdf", "pores"} | set(wins)
     for k, entry in an.items():
         if k in done:
