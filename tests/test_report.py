@@ -58,6 +58,17 @@ def test_viewer_data_are_the_pack(tmp_path):
     assert "<svg" in text  # the grading figure, inline
 
 
+def test_disks_are_drawn_in_the_plane(tmp_path):
+    g = np.stack(np.meshgrid(np.arange(6), np.arange(5), indexing="ij"), -1).reshape(-1, 2) + 0.5
+    r = np.linspace(0.2, 0.45, len(g))
+    pk = pp.Packing(g, r, [6.0, 5.0], species=(r < 0.3).astype(int), periodic=(True, False))
+    d = _payload(view(pk).html)["realizations"][0]
+    pos = _decode(d["positions"]).reshape(-1, 3)
+    assert d["dim"] == 2 and d["box"] == [6.0, 5.0, 0.0] and np.all(pos[:, 2] == 0)
+    assert np.allclose(pos[:, :2], g) and d["periodic"] == [True, False]
+    assert {"x", "y"} <= set(d["fields"]) and "z" not in d["fields"]
+
+
 def test_view_for_jupyter_and_extra_fields(tmp_path):
     pk = lattice_pack(5)
     h = np.arange(pk.n, dtype=float)
@@ -97,6 +108,18 @@ def test_run_report_tables_come_from_the_run(run_dir, tmp_path):
     assert text.count("<figure>") == 4
     names = {p.name for p in (tmp_path / "figs").iterdir()}
     assert {f"{n}.{e}" for n in ("rdf_partials_R", "windows", "pores", "grading") for e in ("png", "svg", "pdf")} == names
+
+
+def test_compare_overlays_another_run(run_dir, tmp_path):
+    other = tmp_path / "scrm"
+    study = tiny_study()
+    study["protocol"] = {"kind": "scrm", "volume_fraction": 0.45, "growth_steps": 2, "global_shakes": 2}
+    study["study"]["name"] = "tiny_scrm"
+    pp.ensemble.run_study(study, other, progress=False)
+    text = report(other, tmp_path / "c.html", compare=[run_dir]).read_text()
+    assert "Runs compared: SCRM, CRM." in text
+    with pytest.raises(InvalidInputError, match="not a polypack run folder"):
+        report(other, tmp_path / "c.html", compare=[tmp_path])
 
 
 def test_report_never_recomputes_the_analyses(run_dir, tmp_path, monkeypatch):

@@ -94,6 +94,14 @@ def test_pack_report_in_browser(tmp_path, browser):
         by_radius = pg.canvas_pixels()
         assert _diff(base, by_radius) > 5
         assert abs(foreground_fraction(by_radius) - foreground_fraction(base)) < 0.01
+        # colour by height: a coordinate computed in the page, its range that of the centres
+        pg.page.select_option(".pp-field", "z")
+        pg.redraw()
+        assert _diff(by_radius, pg.canvas_pixels()) > 5
+        lo, hi = pg.viewer("[v.cur.fields.z.min, v.cur.fields.z.max]")
+        assert abs(lo - pk.positions[:, 2].min()) < 1e-5 and abs(hi - pk.positions[:, 2].max()) < 1e-5
+        pg.page.select_option(".pp-field", "radius")
+        pg.redraw()
 
         # orbit: a drag rotates the view
         box = pg.page.locator("canvas.pp-canvas").bounding_box()

@@ -152,7 +152,8 @@ def partial_rdf_figure(runs, *, theory=False, title=""):
                 R = scaled_coordinate(r, a0[k], a0[m])
                 ax.plot(R, well_stirred_partial(r, a0[k], a0[m]), color="0.45", lw=0.9, ls=":",
                         label="well-stirred (seed 000 eq. 19)")
-                cf = np.asarray(runs[0].get("volume_fractions") or [], dtype=np.float64)
+                vf = runs[0].get("volume_fractions")
+                cf = np.asarray([] if vf is None else vf, dtype=np.float64)
                 if cf.size == ns and cf.sum() < 1:
                     gc = percus_yevick_mixture_contact(a0, cf)
                     ax.plot(R, willis_partial(r, a0[k], a0[m], gc[k, m]), color="k", lw=0.9, ls="--",
@@ -332,7 +333,7 @@ def pores_figure(entry, *, r0, fits=None, title=""):
 
 
 # ------------------------------------------------------------------ grading curves
-def grading_figure(radii, *, model=None, species=None, title=""):
+def grading_figure(radii, *, model=None, species=None, dim=3, title=""):
     """Grading curve ``h(d)`` (cumulative volume fraction) with Hazen's diameters marked.
 
     ``radii`` are the sizes of one pack (read from its file), ``model`` the study's size
@@ -343,7 +344,7 @@ def grading_figure(radii, *, model=None, species=None, title=""):
 
     from ..psd import SizeSet, hazen, plot_grading
 
-    sizes = SizeSet(np.asarray(radii, dtype=np.float64), species=species)
+    sizes = SizeSet(np.asarray(radii, dtype=np.float64), species=species, dim=dim)
     hz = hazen(sizes)
     with paper_style():
         fig, ax = plt.subplots(figsize=(4.6, 3.2))
@@ -352,13 +353,12 @@ def grading_figure(radii, *, model=None, species=None, title=""):
             d = hz[key]
             frac = int(key[1:]) / 100
             ax.plot([d, d], [-0.02, frac], color=col, lw=0.8, ls="--")
-            ax.plot([ax.get_xlim()[0], d], [frac, frac], color=col, lw=0.6, ls=":")
             ax.annotate(f"$d_{{{key[1:]}}}$ = {d:.3g}", (d, frac), textcoords="offset points", xytext=(4, -10),
                         fontsize=7.5, color=col)
         ax.text(0.02, 0.97, f"$C_u = d_{{60}}/d_{{10}}$ = {hz['Cu']:.3g}\n$C_c = d_{{30}}^2/(d_{{10}} d_{{60}})$ = "
                 f"{hz['Cc']:.3g}", transform=ax.transAxes, va="top", fontsize=7.5)
         ax.set_xlabel("diameter d (length units)")
-        ax.set_ylabel("cumulative volume fraction h(d)")
+        ax.set_ylabel("cumulative volume fraction h(d)" if dim == 3 else "cumulative area fraction h(d)")
         handles, labels = ax.get_legend_handles_labels()
         labels = [lab.replace("model h(d)", "size-distribution model").replace("generated set h", "pack sizes")
                   for lab in labels]

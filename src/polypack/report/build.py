@@ -167,7 +167,7 @@ def pack_report_html(path, *, color=None, fields=None, tolerance=0.01, plots_dir
     rows, sp_rows = _pack_tables(pk, z)
     import matplotlib.pyplot as plt
 
-    fig, hz = grading_figure(pk.radii, species=pk.species, title="")
+    fig, hz = grading_figure(pk.radii, species=pk.species, dim=pk.dim, title="")
     svg = svg_text(fig)
     if plots_dir is not None and formats:
         save_figure(fig, Path(plots_dir) / f"{path.stem}_grading", formats)
@@ -390,7 +390,7 @@ def run_figures(run: RunFolder, packs, *, theory=False, compare=(), plots_dir=No
             model = make_model(run.study["psd"])
         except (PolypackError, KeyError, TypeError):
             model = None
-        fig, hz = P.grading_figure(pk0.radii, model=model, species=pk0.species)
+        fig, hz = P.grading_figure(pk0.radii, model=model, species=pk0.species, dim=pk0.dim)
         emit("grading", fig, "Grading curve: cumulative volume fraction h(d) of spheres with diameter below d, of the "
              f"study's size-distribution model and of realization {run.records[0]['index']}'s sizes, with Hazen's "
              f"d10 = {hz['d10']:.4g}, d30 = {hz['d30']:.4g}, d60 = {hz['d60']:.4g}, Cu = {hz['Cu']:.3g}, "

@@ -27,8 +27,8 @@ from ..packing import Packing
 
 __all__ = ["View", "view", "particle_fields", "pack_payload", "viewer_block", "page", "BUILTIN_FIELDS"]
 
-#: Colour fields every pack has (``coordination`` when contacts are counted).
-BUILTIN_FIELDS = ("species", "radius", "coordination")
+#: Colour fields every pack has (``coordination`` when contacts are counted; x, y, z: centre coordinates).
+BUILTIN_FIELDS = ("species", "radius", "coordination", "x", "y", "z")
 
 
 def _b64(a, dtype) -> dict:
@@ -134,6 +134,9 @@ def particle_fields(packing, *, coordination=None, tolerance=0.01, fields=None) 
                                "doc": f"contacts per sphere (relative gap < {tolerance:g})",
                                "values": _b64(z, _int_dtype(z)), "min": float(z.min()), "max": float(z.max()),
                                "unit": "contacts", "colormap": "plasma"}
+    for ax in range(packing.dim):  # centre coordinates, computed in the page from the positions
+        out["xyz"[ax]] = {"kind": "scale", "label": f"position {'xyz'[ax]}", "derived": ax, "unit": "length units",
+                          "colormap": "viridis"}
     for name, vals in (fields or {}).items():
         name = str(name)
         try:
@@ -212,7 +215,8 @@ def viewer_block(payloads, *, name="pack", field="species", height="70vh") -> st
 <div class="pp-foot"><span class="pp-legend"></span><span class="pp-info"></span>
 <span class="pp-help">drag: rotate · shift/right-drag: pan · wheel: zoom</span></div>
 <script type="application/json" class="pp-data">{blob}</script>
-</div>"""
+</div>
+<script>window.polypackStart && window.polypackStart();</script>"""
 
 
 def viewer_head() -> str:

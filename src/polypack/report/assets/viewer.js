@@ -148,7 +148,7 @@
     this.realization = 0;
     this.field = data.initial_field || "species";
     this.clip = { on: false, axis: 2, lo: 0.0, hi: 1.0 };  // slab in box fractions
-    this.yaw = 0.6; this.pitch = 0.45; this.dist = null; this.pan = [0, 0, 0];
+    this._home();
     this.canvas = root.querySelector("canvas");
     var gl = this.canvas.getContext("webgl2", { antialias: false, preserveDrawingBuffer: true });
     if (!gl) throw new Error("this browser has no WebGL2: the pack viewer needs it");
@@ -195,6 +195,12 @@
 
   Viewer.prototype._q = function (sel) { return this.root.querySelector(sel); };
 
+  /* The initial view: oblique for spheres, face-on for disks (2D packs). */
+  Viewer.prototype._home = function () {
+    var flat = this.data.realizations[0] && this.data.realizations[0].dim === 2;
+    this.yaw = flat ? 0 : 0.6; this.pitch = flat ? 0 : 0.45; this.dist = null; this.pan = [0, 0, 0];
+  };
+
   Viewer.prototype._controls = function () {
     var self = this, d = this.data;
     var rsel = this._q(".pp-real");
@@ -216,7 +222,7 @@
     [on, ax].forEach(function (e) { e.addEventListener("change", upd); });
     [pos, thick].forEach(function (e) { e.addEventListener("input", upd); });
     this._q(".pp-reset").addEventListener("click", function () {
-      self.yaw = 0.6; self.pitch = 0.45; self.pan = [0, 0, 0]; self.dist = null; self.render();
+      self._home(); self.render();
     });
     this._q(".pp-png").addEventListener("click", function () { self.savePNG(); });
   };
@@ -299,7 +305,13 @@
   Viewer.prototype.setField = function (name, quiet) {
     var r = this.cur, f = r.fields[name];
     if (!f) throw new Error("unknown colour field '" + name + "'; allowed: " + Object.keys(r.fields).join(", "));
-    if (!f._v) f._v = decode(f.values);
+    if (!f._v) {
+      if (f.derived !== undefined) {  // a coordinate of the centres: computed here, not stored
+        var ax = f.derived, P = r._pos, w = new Float32Array(r.n), lo = Infinity, hi = -Infinity;
+        for (var q = 0; q < r.n; q++) { w[q] = P[3 * q + ax]; lo = Math.min(lo, w[q]); hi = Math.max(hi, w[q]); }
+        f._v = w; f.min = lo; f.max = hi;
+      } else f._v = decode(f.values);
+    }
     var v = f._v, n = r.n, col = new Uint8Array(4 * n), cm, i, k;
     var legend = this._q(".pp-legend");
     legend.innerHTML = "";
@@ -436,6 +448,9 @@
       window.polypackViewer = v;
     }
   }
+  // each viewer block ends with a call of polypackStart(), so the viewer starts before the rest
+  // of a long page (tables, figures) is parsed; DOMContentLoaded catches any other case
+  window.polypackStart = start;
   if (document.readyState === "loading") document.addEventListener("DOMContentLoaded", start);
   else start();
 })();
