@@ -233,8 +233,9 @@
     cv.addEventListener("pointerdown", function (e) {
       last = [e.clientX, e.clientY]; button = (e.button === 2 || e.shiftKey) ? 2 : 0;
       cv.setPointerCapture(e.pointerId);
+      self.interacting = true;
     });
-    cv.addEventListener("pointerup", function () { last = null; });
+    cv.addEventListener("pointerup", function () { last = null; self.interacting = false; self.render(); });
     cv.addEventListener("pointermove", function (e) {
       if (!last) return;
       var dx = e.clientX - last[0], dy = e.clientY - last[1];
@@ -257,8 +258,10 @@
     }, { passive: false });
   };
 
+  /* While the mouse drags, large packs are drawn at half resolution (a quarter of the
+   * pixels) so that orbiting stays fluid without a fast GPU; full resolution on release. */
   Viewer.prototype._resize = function () {
-    var dpr = window.devicePixelRatio || 1, cv = this.canvas;
+    var dpr = (window.devicePixelRatio || 1) * (this.interacting && this.n > 20000 ? 0.5 : 1), cv = this.canvas;
     var w = Math.max(1, Math.round(cv.clientWidth * dpr)), h = Math.max(1, Math.round(cv.clientHeight * dpr));
     if (cv.width !== w || cv.height !== h) { cv.width = w; cv.height = h; }
   };
