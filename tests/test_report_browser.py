@@ -214,3 +214,31 @@ def test_sphere_drawn_at_its_true_radius(tmp_path, browser, radius):
         assert abs(area - math.pi * rpx**2) < math.pi * rpx + 4, (area, math.pi * rpx**2)
     finally:
         pg.close()
+
+
+def test_point_sprites_and_quads_draw_the_same_spheres(tmp_path, browser):
+    """Two rasterisations of the same ray-cast spheres (point sprites, instanced quads) give the
+    same image; close up, where a sprite would exceed the GPU's largest point, quads are used."""
+    pk = lattice_pack(8)
+    path = view(pk).save(tmp_path / "q.html")
+    pg = Page(browser, 700, 600).open(path)
+    try:
+        pg.page.check(".pp-clip-on")  # with sections, so the slab caps are compared too
+        _set_range(pg, "pp-clip-thick", 400)
+        pg.redraw()
+        assert pg.viewer("v.path") == "points"
+        pts = pg.canvas_pixels()
+        pg.page.evaluate("() => { window.polypackViewer.forceQuads = true; }")
+        pg.redraw()
+        assert pg.viewer("v.path") == "quads"
+        quads = pg.canvas_pixels()
+        # identical up to the rasterisation of silhouette pixels (a fraction of a per cent)
+        differ = np.abs(pts - quads).max(axis=2) > 40
+        assert differ.mean() < 0.005, differ.mean()
+        assert foreground_fraction(quads) > 0.2
+        pg.page.evaluate("() => { const v = window.polypackViewer; v.forceQuads = false; v.dist = 2.0; }")
+        pg.redraw()
+        assert pg.viewer("v.path") == "quads" and foreground_fraction(pg.canvas_pixels()) > 0.5
+        assert pg.errors == []
+    finally:
+        pg.close()

@@ -71,6 +71,28 @@
     "}"
   ].join("\n");
 
+  // The same spheres as instanced quads (for spheres larger on screen than the largest point
+  // sprite the GPU allows): each quad lies in the plane through the centre perpendicular to
+  // the line of sight, sized to the tangent cone, so it covers the exact silhouette.
+  var QUAD_VS = [
+    "#version 300 es",
+    "in vec2 corner; in vec3 center; in float radius; in vec4 color;",
+    "uniform mat4 view; uniform mat4 proj;",
+    "flat out vec3 vCenter; flat out float vRadius; flat out vec3 vColor;",
+    "void main() {",
+    "  vec3 c = (view * vec4(center, 1.0)).xyz;",
+    "  float d = length(c);",
+    "  vColor = color.rgb; vCenter = c; vRadius = radius;",
+    "  if (d <= radius * 1.0001) { gl_Position = vec4(2.0, 2.0, 2.0, 1.0); return; }",
+    "  vec3 w = c / d;",
+    "  vec3 up = abs(w.y) < 0.9 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0);",
+    "  vec3 u = normalize(cross(up, w));",
+    "  vec3 v = cross(w, u);",
+    "  float s = radius * d / sqrt(d * d - radius * radius) * 1.02;",
+    "  gl_Position = proj * vec4(c + s * (corner.x * u + corner.y * v), 1.0);",
+    "}"
+  ].join("\n");
+
   var SPHERE_FS = [
     "#version 300 es",
     "precision highp float;",
@@ -155,7 +177,10 @@
     this.gl = gl;
     this.sphereProg = program(gl, SPHERE_VS, SPHERE_FS);
     this.lineProg = program(gl, LINE_VS, LINE_FS);
+    this.quadProg = program(gl, QUAD_VS, SPHERE_FS);
     this.maxPoint = gl.getParameter(gl.ALIASED_POINT_SIZE_RANGE)[1];
+    this.forceQuads = false;
+    this.path = "points";
     this.vao = gl.createVertexArray();
     gl.bindVertexArray(this.vao);
     var P = this.sphereProg;
@@ -171,6 +196,23 @@
     inst("radius", 1, gl.FLOAT, false);
     inst("color", 4, gl.UNSIGNED_BYTE, true);
     gl.bindVertexArray(null);
+    // the quad path: a corner per vertex, the same sphere buffers per instance
+    var Q = this.quadProg;
+    this.quadVao = gl.createVertexArray();
+    gl.bindVertexArray(this.quadVao);
+    var corner = gl.createBuffer(), cl = gl.getAttribLocation(Q, "corner");
+    gl.bindBuffer(gl.ARRAY_BUFFER, corner);
+    gl.bufferData(gl.ARRAY_BUFFER, new Float32Array([-1, -1, 1, -1, -1, 1, 1, 1]), gl.STATIC_DRAW);
+    gl.enableVertexAttribArray(cl);
+    gl.vertexAttribPointer(cl, 2, gl.FLOAT, false, 0, 0);
+    [["center", 3, gl.FLOAT, false], ["radius", 1, gl.FLOAT, false], ["color", 4, gl.UNSIGNED_BYTE, true]].forEach(function (a) {
+      var l = gl.getAttribLocation(Q, a[0]);
+      gl.bindBuffer(gl.ARRAY_BUFFER, self.buf[a[0]]);
+      gl.enableVertexAttribArray(l);
+      gl.vertexAttribPointer(l, a[1], a[2], a[3], 0, 0);
+      gl.vertexAttribDivisor(l, 1);
+    });
+    gl.bindVertexArray(null);
     this.lineVao = gl.createVertexArray();
     gl.bindVertexArray(this.lineVao);
     this.lineBuf = gl.createBuffer();
@@ -179,8 +221,10 @@
     gl.enableVertexAttribArray(ll);
     gl.vertexAttribPointer(ll, 3, gl.FLOAT, false, 0, 0);
     gl.bindVertexArray(null);
-    this.u = {};
-    ["view", "proj", "clipOn", "clipN", "slab", "viewport", "maxPoint"].forEach(function (k) { self.u[k] = gl.getUniformLocation(P, k); });
+    this.u = {}; this.uq = {};
+    ["view", "proj", "clipOn", "clipN", "slab", "viewport", "maxPoint"].forEach(function (k) {
+      self.u[k] = gl.getUniformLocation(P, k); self.uq[k] = gl.getUniformLocation(Q, k);
+    });
     this.ul = {
       view: gl.getUniformLocation(this.lineProg, "view"), proj: gl.getUniformLocation(this.lineProg, "proj"),
       col: gl.getUniformLocation(this.lineProg, "col")
@@ -272,7 +316,12 @@
     var gl = this.gl;
     this.realization = i;
     this.cur = r;
-    if (!r._pos) { r._pos = decode(r.positions); r._rad = decode(r.radii); }
+    if (!r._pos) {
+      r._pos = decode(r.positions); r._rad = decode(r.radii);
+      var m = 0; for (var q = 0; q < r._rad.length; q++) if (r._rad[q] > m) m = r._rad[q];
+      r._rmax = m;
+    }
+    this.rmax = r._rmax;
     this.n = r.n;
     this.box = r.box;
     gl.bindBuffer(gl.ARRAY_BUFFER, this.buf.center);
@@ -390,21 +439,33 @@
     gl.clearColor(bg[0], bg[1], bg[2], 1);
     gl.clear(gl.COLOR_BUFFER_BIT | gl.DEPTH_BUFFER_BIT);
     gl.enable(gl.DEPTH_TEST);
-    gl.useProgram(this.sphereProg);
-    gl.uniformMatrix4fv(this.u.view, false, M.view);
-    gl.uniformMatrix4fv(this.u.proj, false, M.proj);
-    gl.uniform2f(this.u.viewport, this.canvas.width, this.canvas.height);
-    gl.uniform1f(this.u.maxPoint, this.maxPoint);
-    var c = this.clip, L = this.box;
-    gl.uniform1i(this.u.clipOn, c.on ? 1 : 0);
+    // point sprites unless the largest sphere may need a sprite larger than the GPU allows
+    var L = this.box, diag = Math.sqrt(L[0] * L[0] + L[1] * L[1] + L[2] * L[2]);
+    var near = Math.max(this.dist - 0.5 * diag - this.rmax, 0.05 * this.rmax);
+    var need = 2.2 * this.rmax / near * M.proj[5] * this.canvas.height + 2;
+    var quads = this.forceQuads || need > this.maxPoint;
+    this.path = quads ? "quads" : "points";
+    var prog = quads ? this.quadProg : this.sphereProg, U = quads ? this.uq : this.u;
+    gl.useProgram(prog);
+    gl.uniformMatrix4fv(U.view, false, M.view);
+    gl.uniformMatrix4fv(U.proj, false, M.proj);
+    gl.uniform2f(U.viewport, this.canvas.width, this.canvas.height);
+    if (!quads) gl.uniform1f(U.maxPoint, this.maxPoint);
+    var c = this.clip;
+    gl.uniform1i(U.clipOn, c.on ? 1 : 0);
     // world plane n.x in [lo L, hi L] -> view space: n_v = R n, offset + (R n).t
     var n = [0, 0, 0]; n[c.axis] = 1;
     var V = M.view, nv = [V[0] * n[0] + V[4] * n[1] + V[8] * n[2], V[1] * n[0] + V[5] * n[1] + V[9] * n[2], V[2] * n[0] + V[6] * n[1] + V[10] * n[2]];
     var off = nv[0] * V[12] + nv[1] * V[13] + nv[2] * V[14];
-    gl.uniform3fv(this.u.clipN, nv);
-    gl.uniform2f(this.u.slab, c.lo * L[c.axis] + off, c.hi * L[c.axis] + off);
-    gl.bindVertexArray(this.vao);
-    gl.drawArrays(gl.POINTS, 0, this.n);
+    gl.uniform3fv(U.clipN, nv);
+    gl.uniform2f(U.slab, c.lo * L[c.axis] + off, c.hi * L[c.axis] + off);
+    if (quads) {
+      gl.bindVertexArray(this.quadVao);
+      gl.drawArraysInstanced(gl.TRIANGLE_STRIP, 0, 4, this.n);
+    } else {
+      gl.bindVertexArray(this.vao);
+      gl.drawArrays(gl.POINTS, 0, this.n);
+    }
     this.drawnSpheres = this.n;
     if (this.drawBox) {  // the periodic box outline
       gl.useProgram(this.lineProg);
