@@ -205,3 +205,25 @@ def test_cli_report_view_and_run(run_dir, tmp_path, capsys):
     assert "report.html" in out
     assert (tmp_path / "o" / "report.html").stat().st_size > 10_000
     assert (tmp_path / "o" / "figures" / "rdf_partials_R.png").is_file()
+
+
+def test_modulus_against_the_doh(tmp_path):
+    """A run with the elastic and pore stages: the shear modulus of each realization against its
+    DOH a (seed 003 Fig. 6), the points being the numbers of the records."""
+    from polypack.ensemble import plots as P
+
+    st = {"study": {"name": "el", "seed": 3, "realizations": 2},
+          "psd": {"model": "bimodal", "size_ratio": 0.5, "volume_ratio": 0.5, "n": 150},
+          "protocol": {"kind": "crm", "volume_fraction": "jammed"},
+          "analysis": {"elastic": {}, "pores": {"n_points": 2000}}, "output": {"plots": False}}
+    out = tmp_path / "el"
+    pp.ensemble.run_study(st, out, progress=False)
+    text = report(out, tmp_path / "el.html", plots_dir=tmp_path / "f", formats=("svg",)).read_text()
+    assert "Static shear modulus G of each realization against its degree of heterogeneity a" in text
+    assert (tmp_path / "f" / "modulus_vs_doh_elastic.svg").is_file()
+    recs = [json.loads((out / "realizations" / f"r{i:04d}.json").read_text())["scalars"] for i in range(2)]
+    a = [r["pores.fit.seed.a"] for r in recs]
+    g = [r["elastic.shear_modulus"] for r in recs]
+    fig = P.modulus_vs_doh_figure([("CRM", a, g)], y_label="G")
+    (ln,) = fig.axes[0].get_lines()
+    assert np.allclose(ln.get_xdata(), a) and np.allclose(ln.get_ydata(), g) and min(g) > 0

@@ -13,6 +13,8 @@ and returns a :class:`matplotlib.figure.Figure`; nothing is recomputed from the 
   Poisson law of the same mean and the binomial law of an ideal gas of the same N.
 * :func:`pores_figure`: the pore-size survival ``P(r_P > r)`` against ``r / r0`` with
   the fit of Eq. (6) of 003_873b69fc71c74cf6.txt and its ``(a, b)``.
+* :func:`modulus_vs_doh_figure`: the shear modulus of each realization against its DOH a
+  (Fig. 6 of 003_873b69fc71c74cf6.txt), several runs overlaid.
 * :func:`grading_figure`: grading curve ``h(d)`` of the model and of a realization's
   sizes with Hazen's ``d10``, ``d30``, ``d60`` marked, Eq. (18) of 001_ad5bae0acea940c4.txt.
 
@@ -32,7 +34,7 @@ import numpy as np
 from ..errors import InvalidInputError
 
 __all__ = ["paper_style", "partial_rdf_figure", "windows_figure", "pores_figure", "grading_figure", "generic_figure",
-           "species_words", "save_figure", "svg_text", "PLOT_FORMATS"]
+           "species_words", "save_figure", "svg_text", "PLOT_FORMATS", "modulus_vs_doh_figure"]
 
 PLOT_FORMATS = ("png", "svg", "pdf")
 
@@ -423,6 +425,44 @@ def generic_figure(name, entry, title=""):
             _band(ax, x, d, label, color=f"C{i % 10}", points=spec.style == "points", band_label=(i == 0))
         ax.set_xlabel(spec.x_label or entry.get("x_name", "x"))
         ax.set_ylabel(spec.y_label or name)
+        ax.legend(loc="best")
+        if title:
+            ax.set_title(title)
+        fig.tight_layout()
+    return fig
+
+
+# ------------------------------------------------------------------ modulus against the DOH
+#: Per-realization moduli drawn against the DOH, in order of preference: (summary column, axis label).
+MODULUS_COLUMNS = (
+    ("shear.storage_modulus", "storage modulus G′ (Pa)"),
+    ("elastic.shear_modulus", "static shear modulus G (Pa, or stiffness per pack length unit)"),
+)
+DOH_COLUMN = "pores.fit.seed.a"
+
+
+def modulus_vs_doh_figure(groups, *, y_label, title=""):
+    """Shear modulus against the degree of heterogeneity a, one point per realization (Fig. 6 of
+    003_873b69fc71c74cf6.txt, where G′ falls as a power of a, Eq. (7) of 003_873b69fc71c74cf6.txt).
+
+    Parameters
+    ----------
+    groups : list of (str, array_like, array_like)
+        ``(label, a, G)`` per run (structures of one kind), a from Eq. (6) of
+        003_873b69fc71c74cf6.txt.
+    """
+    import matplotlib.pyplot as plt
+
+    with paper_style():
+        fig, ax = plt.subplots(figsize=(4.6, 3.4))
+        for i, (label, a, g) in enumerate(groups):
+            a, g = np.asarray(a, dtype=np.float64), np.asarray(g, dtype=np.float64)
+            ok = np.isfinite(a) & np.isfinite(g) & (g > 0)
+            ax.plot(a[ok], g[ok], "o", ms=3.5, mfc="none", color=f"C{i}", label=f"{label} ({int(ok.sum())} realizations)")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("degree of heterogeneity a (seed 003 eq. 6)")
+        ax.set_ylabel(y_label)
         ax.legend(loc="best")
         if title:
             ax.set_title(title)

@@ -383,6 +383,21 @@ def run_figures(run: RunFolder, packs, *, theory=False, compare=(), plots_dir=No
             emit("pores", fig, "Pore-size survival P(r_P > r): probability that a random point of the void is "
                  "farther than r from every sphere surface, against r/r0 (seed 003 §2.3), with the fit of "
                  f"Eq. (6) of 003_873b69fc71c74cf6.txt (a: degree of heterogeneity); {band}; a and b: ensemble mean ± 95 % half-width.")
+    for col, ylab in P.MODULUS_COLUMNS:
+        groups = []
+        for label, recs in [(_protocol_label(run.study) + f" ({run.name})", run.records)] + \
+                [(_protocol_label(o["run"].study) + f" ({o['run'].name})", o["run"].records) for o in compare]:
+            pts = [(r["scalars"].get(P.DOH_COLUMN), r["scalars"].get(col)) for r in recs]
+            pts = [(a, g) for a, g in pts if isinstance(a, (int, float)) and isinstance(g, (int, float))]
+            if pts:
+                groups.append((label, [a for a, _ in pts], [g for _, g in pts]))
+        if groups:
+            fig = P.modulus_vs_doh_figure(groups, y_label=ylab)
+            emit(f"modulus_vs_doh_{col.split('.')[0]}", fig,
+                 f"{ylab[0].upper() + ylab.split(' (')[0][1:]} of each realization against its degree of heterogeneity a "
+                 "(the Eq. (6) of 003_873b69fc71c74cf6.txt fit of its pore-size survival), as Fig. 6 of seed 003; "
+                 "one colour per run.")
+            break
     if pk0 is not None:
         try:
             from ..ensemble.stages import make_model
