@@ -39,7 +39,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def lattice_pack(n, seed=1):
     import polypack as pp
 
-    side = int(round(n ** (1 / 3)))
+    side = int(np.ceil(n ** (1 / 3) - 1e-9))  # at least n spheres
     rng = np.random.default_rng(seed)
     g = np.stack(np.meshgrid(*[np.arange(side)] * 3, indexing="ij"), -1).reshape(-1, 3) + 0.5
     r = rng.uniform(0.18, 0.46, len(g))
