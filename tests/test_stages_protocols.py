@@ -98,11 +98,33 @@ def test_brownian_protocol_sizes_are_checked_before_anything_runs(tmp_path, stud
     ({"model": "pb"}, r'protocol.model = "pb": allowed'),
     ({"growth_rate": 0.1}, r'protocol.growth_rate: only used with protocol.kind = "crm" or protocol.kind = "scrm"'),
     ({"max_steps": 0}, r"protocol.max_steps = 0: must be an integer >= 1"),
+    ({"bonds": "stiff"}, r'protocol.bonds = "stiff": allowed'),
 ])
 def test_brownian_protocol_bad_options(protocol, msg):
     with pytest.raises(InvalidInputError, match=msg) as exc:
         validate(_bd_study(**protocol))
     assert "\n" not in str(exc.value)
+
+
+def test_brownian_protocol_passes_the_bond_model(monkeypatch):
+    """[protocol] bonds reaches pp.brownian (rigid clusters or free rolling, docs/brownian.md)."""
+    import polypack.generate.brownian as gb
+    from polypack.generate.protocols import run_brownian
+
+    seen = {}
+
+    class Stop(Exception):
+        pass
+
+    def fake(n, **kw):
+        seen.update(kw)
+        raise Stop
+
+    monkeypatch.setattr(gb, "brownian", fake)
+    sizes = pp.psd.SizeSet(np.full(50, 0.5))
+    with pytest.raises(Stop):
+        run_brownian(sizes, {"volume_fraction": 0.4, "surface_potential": 0.0, "bonds": "rigid"}, seed=1)
+    assert seen["bonds"] == "rigid"
 
 
 # --------------------------------------------------------------------------- deposit

@@ -207,6 +207,8 @@ class BrownianOptions:
     min_time: float = option(None, v.non_negative, "shortest simulated time, s (stable_window)", unit="s")
     max_time: float = option(None, v.positive, "simulated-time budget, s (60 a²/D0)", unit="s")
     max_steps: int = option(None, v.int_min(1), "step budget")
+    bonds: str = option(None, v.choice("flexible", "rigid"),
+                        "bonded spheres roll freely (flexible, default) or bonded clusters move as rigid bodies (rigid)")
 
 
 @dataclass(frozen=True)
