@@ -155,6 +155,11 @@ def test_partial_rdfs_kernel_equals_stored_pair_histogram_and_mefm_from_g():
     fr = np.array([np.sum(4 / 3 * np.pi * pk.radii[pk.species == s] ** 3) for s in range(pk.n_species)])
     e_g = mefm(EPOXY, incs, (r, g), fractions=fr / np.prod(pk.box), radii=a)
     assert e_g.bulk == pytest.approx(e_pack.bulk, rel=1e-12) and e_g.shear == pytest.approx(e_pack.shear, rel=1e-12)
+    # a small pack whose range is half the box (the all-neighbour sweep, no half-shell offsets)
+    small = pp.pack(np.random.default_rng(5).choice([1.0, 0.6], 300), volume_fraction=0.4, seed=5)
+    small = small.replace(species=(small.radii < 0.8).astype(int))
+    half = 0.5 * float(small.box.min())
+    assert np.array_equal(partial_rdfs(small, half, 0.02)[1], _partial_rdfs_from_stored_pairs(small, half, 0.02)[1])
     with pytest.raises(InvalidInputError, match=r"rdf=\(r, g\)"):
         mefm(EPOXY, incs, (r, g[0]), fractions=fr / np.prod(pk.box), radii=a)
 

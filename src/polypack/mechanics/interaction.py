@@ -162,6 +162,24 @@ def pair_interaction_coefficients(matrix, inc_r, inc_s, a_r, a_s, distances):
     return out
 
 
+def _pair_counts_3d(packing, x_max, nbins, nspecies):
+    """Ordered-pair counts ``(K*K, nbins)`` of centre distances in ``[k h, (k+1) h)``, ``h = x_max/nbins``."""
+    from .._kernels import analysis as kern
+    from ..neighbors import choose_cells
+
+    box = np.ascontiguousarray(packing.box, dtype=np.float64)
+    pos = np.ascontiguousarray(packing.positions, dtype=np.float64)
+    rad = np.ascontiguousarray(packing.radii, dtype=np.float64)
+    sp = np.ascontiguousarray(packing.species, dtype=np.int64)
+    nc = choose_cells(box, pos.shape[0], 0.5 * x_max)
+    off = kern.half_shell_offsets(nc, box / nc, float(x_max))
+    if off.shape[0] > 0:
+        counts = kern.pair_histogram_distance(pos, sp, box, nspecies, float(x_max), int(nbins), nc, off)
+    else:  # grid too coarse for distinct half-shell offsets: the all-neighbour sweep
+        counts = kern.pair_histogram(pos, rad, sp, box, nspecies, float(x_max), int(nbins), False, nc)
+    return np.asarray(counts, dtype=np.float64)
+
+
 def partial_rdfs(packing, r_max, dr):
     """Partial RDFs ``g_km(r)`` of a periodic pack on shells of width ``dr`` (ordered pairs).
 
@@ -171,13 +189,11 @@ def partial_rdfs(packing, r_max, dr):
     ``(K, K, n_bins)``, ``r`` the shell centres; ``(r, g)`` can be passed back to
     :func:`mefm` as its ``rdf``.
 
-    The pairs are counted by the half-shell cell sweep of
-    :func:`polypack.analysis._paircounts.pair_counts` (a numba kernel that never
-    stores the pairs: about 10⁸ pairs for N = 2×10⁴ at the default range of
-    :func:`mefm`); bins are ``[k dr, (k + 1) dr)``.
+    The pairs are counted by the half-shell cell-sweep pair-histogram kernel
+    (:func:`polypack._kernels.analysis.pair_histogram_distance`, the one behind
+    :class:`polypack.analysis.RDF`; it never stores the pairs: about 10⁸ pairs for
+    N = 2×10⁴ at the default range of :func:`mefm`); bins are ``[k dr, (k + 1) dr)``.
     """
-    from ..analysis._paircounts import pair_counts
-
     box = np.asarray(packing.box, dtype=np.float64)
     if r_max > 0.5 * box.min() * (1 + 1e-12):
         raise InvalidInputError(f"r_max={r_max:g} exceeds half the smallest box length {0.5 * box.min():g}")
@@ -189,8 +205,7 @@ def partial_rdfs(packing, r_max, dr):
     if nb < 1:
         raise InvalidInputError(f"r_max={r_max:g} is shorter than one shell dr={dr:g}")
     edges = np.arange(nb + 1) * dr
-    counts = pair_counts(packing, nb * dr, nb)
-    counts = np.asarray(counts, dtype=np.float64).reshape(k, k, nb)
+    counts = _pair_counts_3d(packing, nb * dr, nb, k).reshape(k, k, nb)
     nk = np.bincount(sp, minlength=k).astype(np.float64)
     vol = float(np.prod(box))
     shell = 4.0 / 3.0 * np.pi * (edges[1:] ** 3 - edges[:-1] ** 3)
