@@ -139,7 +139,7 @@ def pp_gel_rate(n, steps, psi=0.015):
     return n * steps / (time.process_time() - t0)
 
 
-def part_gel(n, psi_mv, seed, max_time_tau):
+def part_gel(n, psi_mv, seed, max_time_tau, bonds="flexible", **model):
     import polypack as pp
 
     p = pp.generate.dlvo_parameters(psi_mv * 1e-3)
@@ -148,7 +148,7 @@ def part_gel(n, psi_mv, seed, max_time_tau):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         pk = pp.brownian(n, 0.4, psi_mv * 1e-3, seed=seed, max_time=max_time_tau * p.brownian_time,
-                         progress=None)
+                         progress=None, bonds=bonds, **model)
     wall = time.perf_counter() - t0
     cpu = time.process_time() - c0
     b = pk.meta["brownian"]
@@ -157,7 +157,7 @@ def part_gel(n, psi_mv, seed, max_time_tau):
     fit = ps.fit["seed"]
     ref = TABLE2.get(int(round(psi_mv)))
     return {
-        "n": n, "psi_mV": psi_mv, "wall": wall, "cpu": cpu, "steps": b["steps"],
+        "n": n, "psi_mV": psi_mv, "bonds": bonds, "tangential": b.get("tangential"), "wall": wall, "cpu": cpu, "steps": b["steps"],
         "simulated_time_tau": b["simulated_time"] / b["brownian_time"], "converged": b["converged"],
         "rate_per_cpu_s": b["steps"] * n / cpu, "bond_coordination": b["coordination"],
         "contact_coordination_eps0.01": c.coordination, "clusters": b["clusters"],
@@ -177,10 +177,18 @@ def main(argv=None):
     ap.add_argument("--series-n", type=int, default=1000)
     ap.add_argument("--max-time", type=float, default=60.0, help="budget in a²/D0")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--bonds", default="flexible", choices=["flexible", "rigid", "tangential"], help="bond model")
+    ap.add_argument("--sliding-stiffness", type=float, default=None,
+                    help="tangential bonds: sliding stiffness in kT/a² (default: the numerical one)")
+    ap.add_argument("--psi-list", default="0,12,13,14,15", help="Ψ0 values (mV) of --only series")
     ap.add_argument("--output", default="bench_brownian.json")
     args = ap.parse_args(argv)
     parts = args.only or ["rate", "gel", "series"]
     os.environ.setdefault("OMP_NUM_THREADS", "1")
+    model = {}
+    if args.sliding_stiffness is not None:
+        kT_a2 = 1.380649e-23 * 293.15 / (0.25e-6) ** 2  # default temperature and radius
+        model = {"sliding_stiffness": args.sliding_stiffness * kT_a2}
     out = {"machine_note": "shared machine (several jobs on 2 cores); rates per CPU second"}
     if "rate" in parts:
         r = part_rate(args.n, args.steps)
@@ -190,17 +198,17 @@ def main(argv=None):
                  f", LAMMPS failed: {r.get('lammps_error')}")
               + f"; polypack coagulating gel {r['gel_rate']:.3g}", flush=True)
     if "gel" in parts:
-        g = part_gel(args.n, args.psi, args.seed, args.max_time)
+        g = part_gel(args.n, args.psi, args.seed, args.max_time, args.bonds, **model)
         out["gel"] = g
         print(f"gel N={g['n']} Ψ0={g['psi_mV']} mV: {g['cpu']:.0f} CPU s ({g['wall']:.0f} s wall), {g['steps']} steps, "
               f"{g['simulated_time_tau']:.2f} a²/D0, stable={g['converged']}, C_bond={g['bond_coordination']:.3f}, "
               f"C(eps=0.01)={g['contact_coordination_eps0.01']:.3f}, a={g['doh_a']:.3f}", flush=True)
     if "series" in parts:
         rows = []
-        for mv in (0, 12, 13, 14, 15):
-            g = part_gel(args.series_n, mv, args.seed, args.max_time)
+        for mv in (float(x) for x in args.psi_list.split(",")):
+            g = part_gel(args.series_n, mv, args.seed, args.max_time, args.bonds, **model)
             rows.append(g)
-            print(f"Ψ0={mv:2d} mV: a={g['doh_a']:.3f} (Table 2: {g['table2_a']}), "
+            print(f"Ψ0={mv:4.1f} mV ({args.bonds}): a={g['doh_a']:.3f} (Table 2: {g['table2_a']}), "
                   f"C={g['contact_coordination_eps0.01']:.2f} (Table 2: {g['table2_C']}), "
                   f"percolating={g['percolating']}, stable={g['converged']}, "
                   f"t={g['simulated_time_tau']:.1f} a²/D0, {g['cpu']:.0f} CPU s", flush=True)

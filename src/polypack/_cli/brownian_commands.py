@@ -28,7 +28,14 @@ def register(app: typer.Typer) -> None:
         debye_length: Optional[float] = typer.Option(None, "--debye-length", help="Debye length in m."),
         model: str = typer.Option("auto", "--model", help="Double layer: auto, hhf or lsa."),
         bonds: str = typer.Option("flexible", "--bonds",
-                                  help="Bond model: rigid (clusters move as rigid bodies) or flexible (free rolling)."),
+                                  help="Bond model: rigid (clusters move as rigid bodies), flexible (free rolling) "
+                                       "or tangential (elastic-plastic sliding and rolling resistance)."),
+        sliding_stiffness: Optional[float] = typer.Option(None, "--sliding-stiffness",
+                                                          help="Tangential bonds: sliding stiffness in N/m."),
+        rolling_stiffness: Optional[float] = typer.Option(None, "--rolling-stiffness",
+                                                          help="Tangential bonds: rolling stiffness in J."),
+        rolling_moment: Optional[float] = typer.Option(None, "--rolling-moment",
+                                                       help="Tangential bonds: critical rolling moment in N m."),
         time_step: Optional[float] = typer.Option(None, "--time-step", help="Time step in s."),
         max_time: Optional[float] = typer.Option(None, "--max-time", help="Simulated-time budget in s."),
         max_steps: Optional[int] = typer.Option(None, "--max-steps", help="Step budget."),
@@ -51,7 +58,8 @@ def register(app: typer.Typer) -> None:
                 n, volume_fraction, surface_potential * 1e-3, seed=seed, radius=radius, temperature=temperature,
                 viscosity=viscosity, hamaker=hamaker, ionic_strength=ionic_strength, debye_length=debye_length,
                 model=model, time_step=time_step, max_time=max_time, max_steps=max_steps, progress=progress,
-                bonds=bonds,
+                bonds=bonds, sliding_stiffness=sliding_stiffness, rolling_stiffness=rolling_stiffness,
+                rolling_moment=rolling_moment,
             )
         io.write(str(output), pk)
         bonds_path = Path(str(output) + ".bonds.json")

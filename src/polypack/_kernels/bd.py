@@ -28,6 +28,9 @@ with ``F`` the total force in units of ``kT/a``, followed by constraint projecti
 
 * :func:`run_rigid`: the same forces, but bonded clusters are rigid bodies
   (Brownian cluster dynamics with free-draining friction; see its docstring).
+* :func:`run_tangential`: the flexible model plus rotational Brownian motion of every
+  sphere and elastic-plastic tangential springs on each bond (sliding and rolling
+  resistance with a rolling yield; see its docstring).
 
 ``P_R_CUT <= 0`` means independent spheres (no list is built).  Neighbours come from
 a Verlet list (centre distance ``P_R_CUT + P_SKIN``) built by
@@ -59,7 +62,11 @@ P_TAB_LO = 8
 P_TAB_DH = 9
 P_TRAP_K = 10
 P_OVERLAP_ONLY = 11  # 1: projections remove overlaps only (no capture, no tether)
-N_PARAMS = 12
+P_K_SLIDE = 12  # run_tangential: sliding (anchor) spring stiffness, kT / a^2
+P_K_ROLL = 13  # run_tangential: rolling stiffness, kT (U = k_r |xi|^2 / 2, xi dimensionless)
+P_ROLL_MAX = 14  # run_tangential: largest elastic rolling displacement |xi| (yield beyond), inf = none
+P_ROTATE = 15  # run_tangential: 1 integrates rotations even without tangential springs (validation)
+N_PARAMS = 16
 
 # float state slots
 S_TIME = 0
@@ -481,6 +488,15 @@ def warmup():
     istate[:] = 0
     run_rigid(pos, box, params, state, istate, table, bonds, adj, deg, np.array([2, 2, 2], np.int64), rng_state, 3,
               lab, nxt, head, tail, csize, frozen)
+    deg[:] = 0
+    istate[:] = 0
+    params[P_K_SLIDE] = 10.0
+    params[P_K_ROLL] = 10.0
+    params[P_ROLL_MAX] = 0.1
+    orient = np.zeros((8, 3))
+    orient[:, 2] = 1.0
+    run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, np.array([2, 2, 2], np.int64),
+                   rng_state, 3, np.zeros((32, 6)), orient)
 
 
 # ----------------------------------------------------------------------------------------
@@ -875,6 +891,300 @@ def run_rigid(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rn
             d2 = 0.0
             for c in range(3):
                 e = min_image(pos[i, c] - ref[i, c], box[c])
+                d2 += e * e
+            if d2 > maxd2:
+                maxd2 = d2
+        if maxd2 > half_skin2 and rc2 > 0.0:
+            pi, pj, flag = _build(pos, box, params, adj, deg, ncell)
+            for i in range(n):
+                for c in range(3):
+                    ref[i, c] = pos[i, c]
+            istate[I_REBUILDS] += 1
+    return Status.OK
+
+
+# ----------------------------------------------------------------------------------------
+# Tangential bonds: sliding and rolling resistance (rotational Brownian dynamics)
+# ----------------------------------------------------------------------------------------
+#
+# Every bond b = (i, j) carries two unit "anchor" vectors in the lab frame, anchors[b, 0:3] = u
+# (a material direction of sphere i, rotating with i) and anchors[b, 3:6] = w (of sphere j),
+# set at capture to u = n, w = -n (n the unit vector from i to j).  With radius 1:
+#
+#   sliding    d  = x_j - x_i + w - u       (separation of the two surface material points that
+#                                            touched at capture; zero at capture up to the gap)
+#   rolling    xi = (u + w) / 2             (the rolling displacement of Dominik & Tielens 1995,
+#                                            in units of the radius, for equal spheres)
+#   U = k_s |d|^2 / 2 + k_r |xi|^2 / 2
+#
+# Forces and torques are the exact gradients: F_i = k_s d = -F_j, tau_i = k_s u x d,
+# tau_j = -k_s w x d, tau_i = -(k_r / 4) u x w = -tau_j.  A rigid-body motion of the pair
+# leaves d and xi unchanged; rolling without slipping changes xi only, sliding changes d only;
+# twisting about n is free.  Rolling yields (Dominik & Tielens): when |xi| exceeds P_ROLL_MAX
+# the anchors are turned (about u x w, symmetrically) back to |xi| = P_ROLL_MAX, so the rolling
+# moment (k_r / 2) |xi| never exceeds (k_r / 2) P_ROLL_MAX.  Rotations: free-draining rotational
+# friction 8 pi eta a^3 = (4/3) in reduced units (mobility 3/4), rotational noise sqrt(2 (3/4) dt).
+
+SPHERE_ROT_MOBILITY = 1.0 / SPHERE_ROT_FRICTION
+
+
+@njit(cache=True)
+def _dlvo_forces(pos, box, params, pi, pj, flag, table, force):
+    """Add the tabulated central pair force of every unbonded listed pair to ``force``; returns sum r F."""
+    dt = params[P_DT]
+    rc2 = params[P_R_CUT] * params[P_R_CUT]
+    cap_drift = params[P_CAP_DRIFT]
+    lo = params[P_TAB_LO]
+    inv_dh = 1.0 / params[P_TAB_DH]
+    ntab = table.shape[0]
+    vir = 0.0
+    for k in range(pi.shape[0]):
+        if flag[k]:
+            continue
+        i = pi[k]
+        j = pj[k]
+        dx = min_image(pos[j, 0] - pos[i, 0], box[0])
+        dy = min_image(pos[j, 1] - pos[i, 1], box[1])
+        dz = min_image(pos[j, 2] - pos[i, 2], box[2])
+        r2 = dx * dx + dy * dy + dz * dz
+        if r2 >= rc2:
+            continue
+        r = np.sqrt(r2)
+        h = r - 2.0
+        t = (h - lo) * inv_dh
+        if t <= 0.0:
+            f = table[0]
+        elif t >= ntab - 1:
+            f = table[ntab - 1]
+        else:
+            q = int(t)
+            w = t - q
+            f = (1.0 - w) * table[q] + w * table[q + 1]
+        if cap_drift > 0.0 and f < 0.0 and dt > 0.0:
+            fmax = cap_drift * max(h, 0.0) / (2.0 * dt)
+            if -f > fmax:
+                f = -fmax
+        vir += f * r
+        fr = f / r
+        force[i, 0] -= fr * dx
+        force[i, 1] -= fr * dy
+        force[i, 2] -= fr * dz
+        force[j, 0] += fr * dx
+        force[j, 1] += fr * dy
+        force[j, 2] += fr * dz
+    return vir
+
+
+@njit(cache=True)
+def _init_anchors(pos, box, bonds, anchors, first, last):
+    """Anchors of the bonds ``first <= b < last`` (new captures): u = n, w = -n."""
+    for b in range(first, last):
+        i = bonds[b, 0]
+        j = bonds[b, 1]
+        dx = min_image(pos[j, 0] - pos[i, 0], box[0])
+        dy = min_image(pos[j, 1] - pos[i, 1], box[1])
+        dz = min_image(pos[j, 2] - pos[i, 2], box[2])
+        r = max(np.sqrt(dx * dx + dy * dy + dz * dz), 1e-300)
+        anchors[b, 0] = dx / r
+        anchors[b, 1] = dy / r
+        anchors[b, 2] = dz / r
+        anchors[b, 3] = -dx / r
+        anchors[b, 4] = -dy / r
+        anchors[b, 5] = -dz / r
+
+
+@njit(cache=True)
+def _tangential_forces(pos, box, params, bonds, nb, anchors, force, torque):
+    """Sliding and rolling spring forces/torques of every bond (module comment); applies the rolling yield."""
+    ks = params[P_K_SLIDE]
+    kr = params[P_K_ROLL]
+    xmax = params[P_ROLL_MAX]
+    for b in range(nb):
+        i = bonds[b, 0]
+        j = bonds[b, 1]
+        ux = anchors[b, 0]
+        uy = anchors[b, 1]
+        uz = anchors[b, 2]
+        wx = anchors[b, 3]
+        wy = anchors[b, 4]
+        wz = anchors[b, 5]
+        if kr > 0.0:
+            xx = 0.5 * (ux + wx)
+            xy = 0.5 * (uy + wy)
+            xz = 0.5 * (uz + wz)
+            xn = np.sqrt(xx * xx + xy * xy + xz * xz)
+            if xn > xmax:
+                # yield: u = c m + s e, w = -c m + s e with m = (u - w)/|u - w|, e = xi/|xi|, s = xmax
+                mx = ux - wx
+                my = uy - wy
+                mz = uz - wz
+                mn = max(np.sqrt(mx * mx + my * my + mz * mz), 1e-300)
+                mx /= mn
+                my /= mn
+                mz /= mn
+                s = min(xmax, 1.0)
+                c = np.sqrt(1.0 - s * s)
+                ex = xx / xn
+                ey = xy / xn
+                ez = xz / xn
+                ux = c * mx + s * ex
+                uy = c * my + s * ey
+                uz = c * mz + s * ez
+                wx = -c * mx + s * ex
+                wy = -c * my + s * ey
+                wz = -c * mz + s * ez
+                anchors[b, 0] = ux
+                anchors[b, 1] = uy
+                anchors[b, 2] = uz
+                anchors[b, 3] = wx
+                anchors[b, 4] = wy
+                anchors[b, 5] = wz
+            g = 0.25 * kr
+            cx = uy * wz - uz * wy
+            cy = uz * wx - ux * wz
+            cz = ux * wy - uy * wx
+            torque[i, 0] -= g * cx
+            torque[i, 1] -= g * cy
+            torque[i, 2] -= g * cz
+            torque[j, 0] += g * cx
+            torque[j, 1] += g * cy
+            torque[j, 2] += g * cz
+        if ks > 0.0:
+            dx = min_image(pos[j, 0] - pos[i, 0], box[0]) + wx - ux
+            dy = min_image(pos[j, 1] - pos[i, 1], box[1]) + wy - uy
+            dz = min_image(pos[j, 2] - pos[i, 2], box[2]) + wz - uz
+            force[i, 0] += ks * dx
+            force[i, 1] += ks * dy
+            force[i, 2] += ks * dz
+            force[j, 0] -= ks * dx
+            force[j, 1] -= ks * dy
+            force[j, 2] -= ks * dz
+            torque[i, 0] += ks * (uy * dz - uz * dy)
+            torque[i, 1] += ks * (uz * dx - ux * dz)
+            torque[i, 2] += ks * (ux * dy - uy * dx)
+            torque[j, 0] -= ks * (wy * dz - wz * dy)
+            torque[j, 1] -= ks * (wz * dx - wx * dz)
+            torque[j, 2] -= ks * (wx * dy - wy * dx)
+
+
+@njit(cache=True)
+def _apply_rotation(rot, i, v, k):
+    """v[k, 0:3] <- rot[i] v[k, 0:3]."""
+    x = v[k, 0]
+    y = v[k, 1]
+    z = v[k, 2]
+    v[k, 0] = rot[i, 0, 0] * x + rot[i, 0, 1] * y + rot[i, 0, 2] * z
+    v[k, 1] = rot[i, 1, 0] * x + rot[i, 1, 1] * y + rot[i, 1, 2] * z
+    v[k, 2] = rot[i, 2, 0] * x + rot[i, 2, 1] * y + rot[i, 2, 2] * z
+
+
+@njit(cache=True)
+def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rng, nsteps, anchors,
+                   orient):
+    """Advance ``nsteps`` steps of the flexible model with tangential bond springs (in place).
+
+    Arguments as :func:`run`, plus ``anchors`` (B, 6) float64 (the two anchor unit
+    vectors of each bond row, see the comment above :func:`_dlvo_forces`; rows of new
+    bonds are set at capture) and ``orient`` (N, 3) float64, one body-fixed unit vector
+    per sphere (rotated with it; diagnostics such as rotational diffusion).
+
+    Each step: DLVO forces of the unbonded pairs, sliding/rolling spring forces and
+    torques of the bonds (rolling yield applied first), an Ermak–McCammon step of every
+    centre (mobility 1) and of every orientation (rotation vector
+    ``(3/4) tau dt + sqrt(2 (3/4) dt) xi``, Rodrigues rotation of the sphere's anchors
+    and ``orient``), then the capture and shell projections of :func:`run`.  With both
+    stiffnesses zero and ``P_ROTATE = 0`` no rotation is integrated and the trajectory
+    is that of :func:`run` bit for bit.
+    """
+    n = pos.shape[0]
+    dt = params[P_DT]
+    noise = params[P_NOISE]
+    rc2 = params[P_R_CUT] * params[P_R_CUT]
+    half_skin2 = 0.25 * params[P_SKIN] * params[P_SKIN]
+    bonding = params[P_BOND_WIDTH] >= 0.0
+    ktrap = params[P_TRAP_K]
+    springs = params[P_K_SLIDE] > 0.0 or params[P_K_ROLL] > 0.0
+    rotate = springs or params[P_ROTATE] != 0.0
+    rnoise = noise * np.sqrt(SPHERE_ROT_MOBILITY)
+    cx = 0.5 * box[0]
+    cy = 0.5 * box[1]
+    cz = 0.5 * box[2]
+
+    pi, pj, flag = _build(pos, box, params, adj, deg, ncell)
+    ref = pos.copy()
+    force = np.zeros((n, 3), np.float64)
+    torque = np.zeros((n, 3), np.float64)
+    rot = np.zeros((n, 3, 3), np.float64)
+    rmat = np.zeros((3, 3), np.float64)
+    for _step in range(nsteps):
+        for i in range(n):
+            for c in range(3):
+                force[i, c] = 0.0
+                torque[i, c] = 0.0
+        vir = _dlvo_forces(pos, box, params, pi, pj, flag, table, force)
+        if springs:
+            _tangential_forces(pos, box, params, bonds, istate[I_NBONDS], anchors, force, torque)
+        if ktrap != 0.0:
+            for i in range(n):
+                force[i, 0] -= ktrap * min_image(pos[i, 0] - cx, box[0])
+                force[i, 1] -= ktrap * min_image(pos[i, 1] - cy, box[1])
+                force[i, 2] -= ktrap * min_image(pos[i, 2] - cz, box[2])
+        state[S_VIRIAL] += vir
+        state[S_VIRIAL_STEPS] += 1.0
+        for i in range(n):
+            for c in range(3):
+                x = pos[i, c] + force[i, c] * dt
+                if noise != 0.0:
+                    x += noise * next_normal(rng, state)
+                pos[i, c] = x
+        if rotate:
+            for i in range(n):
+                tx = SPHERE_ROT_MOBILITY * torque[i, 0] * dt
+                ty = SPHERE_ROT_MOBILITY * torque[i, 1] * dt
+                tz = SPHERE_ROT_MOBILITY * torque[i, 2] * dt
+                if noise != 0.0:
+                    tx += rnoise * next_normal(rng, state)
+                    ty += rnoise * next_normal(rng, state)
+                    tz += rnoise * next_normal(rng, state)
+                _rotation(tx, ty, tz, rmat)
+                for p in range(3):
+                    for q in range(3):
+                        rot[i, p, q] = rmat[p, q]
+                _apply_rotation(rot, i, orient, i)
+            nb = istate[I_NBONDS]
+            for b in range(nb):
+                i = bonds[b, 0]
+                j = bonds[b, 1]
+                for c in range(3):
+                    x = anchors[b, c]
+                    y = anchors[b, 3 + c]
+                    rmat[0, c] = x
+                    rmat[1, c] = y
+                u0 = rmat[0, 0]
+                u1 = rmat[0, 1]
+                u2 = rmat[0, 2]
+                w0 = rmat[1, 0]
+                w1 = rmat[1, 1]
+                w2 = rmat[1, 2]
+                anchors[b, 0] = rot[i, 0, 0] * u0 + rot[i, 0, 1] * u1 + rot[i, 0, 2] * u2
+                anchors[b, 1] = rot[i, 1, 0] * u0 + rot[i, 1, 1] * u1 + rot[i, 1, 2] * u2
+                anchors[b, 2] = rot[i, 2, 0] * u0 + rot[i, 2, 1] * u1 + rot[i, 2, 2] * u2
+                anchors[b, 3] = rot[j, 0, 0] * w0 + rot[j, 0, 1] * w1 + rot[j, 0, 2] * w2
+                anchors[b, 4] = rot[j, 1, 0] * w0 + rot[j, 1, 1] * w1 + rot[j, 1, 2] * w2
+                anchors[b, 5] = rot[j, 2, 0] * w0 + rot[j, 2, 1] * w1 + rot[j, 2, 2] * w2
+        if bonding:
+            nb_old = istate[I_NBONDS]
+            status = _project(pos, box, params, state, istate, pi, pj, flag, bonds, adj, deg)
+            _init_anchors(pos, box, bonds, anchors, nb_old, istate[I_NBONDS])
+            if status != Status.OK:
+                return status
+        state[S_TIME] += dt
+        istate[I_STEPS] += 1
+        maxd2 = 0.0
+        for i in range(n):
+            d2 = 0.0
+            for c in range(3):
+                e = pos[i, c] - ref[i, c]
                 d2 += e * e
             if d2 > maxd2:
                 maxd2 = d2

@@ -207,8 +207,12 @@ class BrownianOptions:
     min_time: float = option(None, v.non_negative, "shortest simulated time, s (stable_window)", unit="s")
     max_time: float = option(None, v.positive, "simulated-time budget, s (60 a²/D0)", unit="s")
     max_steps: int = option(None, v.int_min(1), "step budget")
-    bonds: str = option(None, v.choice("flexible", "rigid"),
-                        "bonded spheres roll freely (flexible, default) or bonded clusters move as rigid bodies (rigid)")
+    bonds: str = option(None, v.choice("flexible", "rigid", "tangential"),
+                        "bonded spheres roll freely (flexible, default), bonded clusters move as rigid bodies "
+                        "(rigid), or bonds resist sliding and rolling elastically (tangential)")
+    sliding_stiffness: float = option(None, v.non_negative, "tangential bonds: sliding spring stiffness, N/m", unit="N/m")
+    rolling_stiffness: float = option(None, v.non_negative, "tangential bonds: rolling stiffness, J", unit="J")
+    rolling_moment: float = option(None, v.positive, "tangential bonds: critical rolling moment, N m", unit="N m")
 
 
 @dataclass(frozen=True)

@@ -39,6 +39,18 @@ a bond constrains is the bond model ``bonds``:
   removed) by symmetric moves along the line of centres (Heyes & Melrose 1993
   overlap removal plus a tether); bonded spheres roll freely on each other, which
   lets clusters restructure and densify (Babu, Gimel & Nicolai 2008).
+* ``"tangential"``: the flexible model plus a resistance to sliding and rolling.  Every
+  sphere also diffuses rotationally (free-draining rotational friction ``8π η a³``,
+  ``D_r = kT/(8π η a³)``); each bond joins the two surface material points that
+  touched at capture by a spring (sliding, stiffness ``sliding_stiffness``) and
+  resists the Dominik–Tielens rolling displacement ``ξ = (u + w)/2`` of its two
+  anchor directions (``rolling_stiffness``); rolling turns plastic at the critical
+  moment ``rolling_moment`` (Dominik & Tielens 1995), whose default is 1/100 of ``a``
+  times the adhesion force, the ratio measured for silica microspheres by Heim et
+  al. (1999).  Twisting is free.  Zero stiffnesses give the flexible model exactly;
+  infinite ones would give rigid clusters.  The default stiffnesses are numerical
+  (the stiffest the time step integrates stably, see :func:`brownian`): real
+  solid contacts are stiffer still.  Kernel :func:`polypack._kernels.bd.run_tangential`.
 
 Stopping rule
 -------------
@@ -56,6 +68,14 @@ Hütter, M., J. Colloid Interface Sci. 231, 337 (2000).
 Heyes, D. M. & Melrose, J. R., J. Non-Newtonian Fluid Mech. 46, 1 (1993).
 Babu, S., Gimel, J. C. & Nicolai, T., J. Chem. Phys. 128, 204504 (2008) (Brownian
 cluster dynamics; rigid and flexible bonds).
+Dominik, C. & Tielens, A. G. G. M., Philos. Mag. A 72, 783 (1995) (rolling resistance of
+adhesive contacts, critical rolling displacement).
+Heim, L.-O., Blum, J., Preuss, M. & Butt, H.-J., Phys. Rev. Lett. 83, 3328 (1999)
+(rolling-friction forces about 100 times below the adhesion forces).
+Pantina, J. P. & Furst, E. M., Phys. Rev. Lett. 94, 138301 (2005) (bonds between
+colloidal particles support bending moments).
+Becker, V. & Briesen, H., arXiv:0808.3108 (2008) (a tangential force model for
+bonded colloidal particles).
 """
 
 from __future__ import annotations
@@ -76,7 +96,18 @@ __all__ = ["brownian", "BrownianSimulation", "brownian_bonds", "BOND_MODELS", "M
 
 #: Bond models: ``"rigid"`` (bonded spheres form rigid clusters: Brownian cluster
 #: dynamics, no rolling or sliding) and ``"flexible"`` (central bonds: free rolling).
-BOND_MODELS = ("rigid", "flexible")
+BOND_MODELS = ("rigid", "flexible", "tangential")
+
+#: Ratio of the critical rolling moment to ``a`` times the adhesion force in the default of
+#: ``bonds="tangential"``: rolling-friction forces between silica microspheres are about 100
+#: times lower than their adhesion (pull-off) forces (Heim, Blum, Preuss & Butt 1999).
+ROLLING_TO_ADHESION = 0.01
+#: Per-bond relaxation number ``k_s * mobility * dt`` of the default (numerical) sliding
+#: stiffness of ``bonds="tangential"``: a sphere with 10 bonds stays below the explicit
+#: Euler stability limit 2.
+TANGENTIAL_STEP_STIFFNESS = 0.1
+_SLIDE_MOBILITY = 2.0 + 2.0 * 0.75  # relative mobility of the anchor separation d (reduced)
+_ROLL_MOBILITY = 0.25 * 0.75 * 2.0  # relative mobility of the rolling displacement xi (reduced)
 
 #: Largest allowed rms Brownian step per coordinate, ``sqrt(2 D0 Δt)``, in Debye lengths.
 MAX_STEP_FRACTION = 0.5
@@ -136,14 +167,16 @@ class BrownianSimulation:
         centre (validation; 0 = none).
     seed : int or SeedSequence
     max_bonds_per_particle : int
-    bonds : {"rigid", "flexible"}
+    bonds : {"rigid", "flexible", "tangential"}
         Bond model (see :func:`brownian`); ignored when ``bond_width`` is None.
+    sliding_stiffness, rolling_stiffness, rolling_moment
+        Tangential bond springs of ``bonds="tangential"`` (see :func:`brownian`).
     """
 
     def __init__(self, positions, box, parameters: DLVOParameters, *, time_step=None, bond_width=1e-9,
                  drift_cap=0.25, cutoff=None, skin=0.4, trap_stiffness=0.0, seed=None,
                  max_bonds_per_particle=24, table_points=8192, max_sweeps=4, projection_tolerance=1e-7,
-                 bonds="flexible"):
+                 bonds="flexible", sliding_stiffness=None, rolling_stiffness=None, rolling_moment=None):
         from .._kernels import bd
         from ..neighbors import choose_cells
 
@@ -217,6 +250,10 @@ class BrownianSimulation:
             # overlap left at capture is frozen into the rigid cluster for good
             params[bd.P_PROJ_TOL] = min(params[bd.P_PROJ_TOL], RIGID_OVERLAP_TOLERANCE)
             params[bd.P_SWEEPS] = max(params[bd.P_SWEEPS], 50)
+        self.tangential = None
+        if bonds == "tangential":
+            self.tangential = self._tangential_params(params, p, dt_r, sliding_stiffness, rolling_stiffness,
+                                                      rolling_moment)
         k_trap = _check_positive("trap_stiffness", trap_stiffness, allow_zero=True)
         params[bd.P_TRAP_K] = k_trap * a * a / p.kT
         # force table from a small overlap (or the bond width) to the cutoff
@@ -246,6 +283,10 @@ class BrownianSimulation:
         self._csize = np.zeros(n, np.int64)
         self._frozen = np.zeros(n, np.uint8)
         bd.init_clusters(n, self._lab, self._nxt, self._head, self._tail, self._csize, self._frozen)
+        # tangential model: two anchor unit vectors per bond row, one body-fixed unit vector per sphere
+        self._anchors = np.zeros((self._bonds.shape[0], 6)) if bonds == "tangential" else np.zeros((1, 6))
+        self._orient = np.zeros((n, 3))
+        self._orient[:, 2] = 1.0
         if p.hamaker == 0.0 and p.surface_potential == 0.0 and width is None:
             params[bd.P_R_CUT] = 0.0  # independent spheres: no neighbour list
         self._ncell = choose_cells(self._box, n, rc + skin)
@@ -253,6 +294,48 @@ class BrownianSimulation:
         self._rng = self._seed.generate_state(4, np.uint64)
         if not np.any(self._rng):
             self._rng[0] = np.uint64(1)
+
+    @staticmethod
+    def _tangential_params(params, p, dt_r, sliding_stiffness, rolling_stiffness, rolling_moment):
+        """Fill the tangential-spring slots (reduced units); returns their SI record."""
+        from .._kernels import bd
+
+        a, kT = p.radius, p.kT
+        if sliding_stiffness is None:
+            ks = TANGENTIAL_STEP_STIFFNESS / (_SLIDE_MOBILITY * dt_r)
+        else:
+            ks = _check_positive("sliding_stiffness", sliding_stiffness, allow_zero=True) * a * a / kT
+        if rolling_stiffness is None:
+            kr = 4.0 * ks  # orbital motion of a bonded sphere costs the same by pure sliding or pure rolling
+        else:
+            kr = _check_positive("rolling_stiffness", rolling_stiffness, allow_zero=True) / kT
+        for name, k, mob in (("sliding_stiffness", ks, _SLIDE_MOBILITY), ("rolling_stiffness", kr, _ROLL_MOBILITY)):
+            if k * mob * dt_r > 0.5:
+                raise InvalidInputError(
+                    f"{name}: {k:.3g} (reduced) times its mobility {mob:g} and the step {dt_r:.3g} is "
+                    f"{k * mob * dt_r:.3g} > 0.5 (explicit steps unstable); use a smaller stiffness or time step")
+        # adhesion force of the model: its van der Waals force at the minimum separation (Derjaguin,
+        # equal spheres: A a / (12 h_min^2))
+        f_adh = p.hamaker * a / (12.0 * p.minimum_separation ** 2) if p.minimum_separation > 0 else math.inf
+        if rolling_moment is None:
+            mc = ROLLING_TO_ADHESION * a * f_adh
+        else:
+            try:
+                mc = float(rolling_moment)
+            except (TypeError, ValueError):
+                raise InvalidInputError(f"rolling_moment={rolling_moment!r}: must be a number (N m) or inf") from None
+            if not (mc > 0):
+                raise InvalidInputError(f"rolling_moment={rolling_moment!r}: must be > 0 (N m; inf = no yield)")
+        m = mc / kT / kr if kr > 0 else math.inf  # moment / k_r; the elastic moment is (k_r/2) x sqrt(1 - x^2)
+        m2 = 2.0 * m
+        xmax = math.sqrt(0.5 * (1.0 - math.sqrt(1.0 - m2 * m2))) if m2 < 1.0 else math.inf
+        params[bd.P_K_SLIDE] = ks
+        params[bd.P_K_ROLL] = kr
+        params[bd.P_ROLL_MAX] = xmax
+        return {"sliding_stiffness": ks * kT / (a * a), "rolling_stiffness": kr * kT, "rolling_moment": mc,
+                "rolling_moment_kT": mc / kT, "rolling_yield_displacement": xmax * a if math.isfinite(xmax) else math.inf,
+                "sliding_stiffness_reduced": ks, "rolling_stiffness_reduced": kr,
+                "adhesion_force": f_adh, "default_moment": rolling_moment is None}
 
     # ------------------------------------------------------------------ running
     @property
@@ -279,8 +362,27 @@ class BrownianSimulation:
             return bd.run_rigid(self._pos, self._box, params, self._state, self._istate, self._table, self._bonds,
                                 self._adj, self._deg, self._ncell, self._rng, steps, self._lab, self._nxt,
                                 self._head, self._tail, self._csize, self._frozen)
+        if self.bond_model == "tangential" and self.bond_width is not None:
+            return bd.run_tangential(self._pos, self._box, params, self._state, self._istate, self._table,
+                                     self._bonds, self._adj, self._deg, self._ncell, self._rng, steps, self._anchors,
+                                     self._orient)
         return bd.run(self._pos, self._box, params, self._state, self._istate, self._table, self._bonds,
                       self._adj, self._deg, self._ncell, self._rng, steps)
+
+    @property
+    def orientations(self) -> np.ndarray:
+        """(N, 3) body-fixed unit vector of each sphere (rotated only by ``bonds="tangential"``; a copy)."""
+        return self._orient.copy()
+
+    def bond_strains(self):
+        """``(sliding, rolling)`` of every bond of the tangential model: |d| (m) and |xi| (radii)."""
+        b = self.bonds
+        anc = self._anchors[: b.shape[0]]
+        d = self._pos[b[:, 1]] - self._pos[b[:, 0]]
+        d -= self._box * np.round(d / self._box)
+        d += anc[:, 3:] - anc[:, :3]
+        xi = 0.5 * (anc[:, :3] + anc[:, 3:])
+        return d * self.parameters.radius, xi
 
     @property
     def frozen_clusters(self) -> int:
@@ -442,6 +544,9 @@ def brownian(
     max_steps=None,
     progress=None,
     bonds="flexible",
+    sliding_stiffness=None,
+    rolling_stiffness=None,
+    rolling_moment=None,
 ) -> Packing:
     """Coagulated colloidal gel by Brownian dynamics with DLVO forces.
 
@@ -479,6 +584,26 @@ def brownian(
         (default): central bonds, bonded spheres roll freely.  At Φ = 0.4 neither
         reproduces Table 2 of 003_873b69fc71c74cf6.txt (C = 4.5-5.1): rigid gels
         are loop-poor (C ≈ 2), flexible ones too dense (C ≈ 6); see docs/brownian.md.
+        ``"tangential"``: central bonds plus elastic-plastic sliding and rolling
+        springs between material points of the two spheres (rotational Brownian
+        motion of every sphere; rolling yields at ``rolling_moment``), between the
+        two limits.
+    sliding_stiffness : float, optional
+        ``bonds="tangential"``: stiffness (N/m) of the spring between the two
+        surface points that touched at capture (resists sliding).  Default: the
+        stiffest the time step integrates accurately,
+        ``TANGENTIAL_STEP_STIFFNESS / (3.5 Δt D0/a²)`` in kT/a² (a numerical
+        stiffness: real contacts are far stiffer, see docs/brownian.md).
+    rolling_stiffness : float, optional
+        ``bonds="tangential"``: rolling stiffness (J; energy ``k_r |ξ|²/2`` with ξ
+        the Dominik–Tielens rolling displacement in radii); default ``4 k_s a²``,
+        so that moving a bonded sphere around its partner costs the same by pure
+        sliding or pure rolling.
+    rolling_moment : float, optional
+        ``bonds="tangential"``: critical rolling moment (N m) beyond which rolling is
+        plastic (``inf``: elastic only).  Default ``a F_adh / 100`` (Heim et al.
+        1999) with ``F_adh = A a / (12 h_min²)`` the model's van der Waals force at
+        its minimum separation.
     cutoff : float, optional
         Centre-distance cutoff of the DLVO force (m), default 2.5 a.
     record_interval : float, optional
@@ -549,7 +674,8 @@ def brownian(
     # initial fluid: a stable suspension with every surface gap at least two Debye lengths
     pos0 = _initial_positions(n, a, box_len, 2.0 * p.debye_length, s_init)
     sim = BrownianSimulation(pos0, box_len, p, time_step=time_step, bond_width=bond_width, cutoff=cutoff,
-                             seed=s_noise, bonds=bonds)
+                             seed=s_noise, bonds=bonds, sliding_stiffness=sliding_stiffness,
+                             rolling_stiffness=rolling_stiffness, rolling_moment=rolling_moment)
     dt = sim.time_step
     steps_per_record = max(1, int(round(record_interval / dt)))
     window_records = max(1, int(round(stable_window / (steps_per_record * dt))))
@@ -619,6 +745,7 @@ def brownian(
             "bond_width": sim.bond_width,
             "bonds": sim.bond_model,
             "frozen_clusters": sim.frozen_clusters,
+            "tangential": sim.tangential,
             "final_overlap_residual": residual,
             "bond_gap_max": float(gaps.max()) if gaps.size else 0.0,
             "bond_gap_mean": float(gaps.mean()) if gaps.size else 0.0,
