@@ -68,6 +68,33 @@ def test_pair_histograms_both_kernels(gas):
     np.testing.assert_array_equal(pair_counts(pk, 3.0, 30, "contact").reshape(2, 2, 30), _oracle_hist(pk, x, 3.0, 30))
 
 
+def test_half_shell_sweep_visits_every_offset_that_holds_a_pair():
+    """Pairs planted just inside r_max in random directions, on grids whose cells are long on one
+    axis and short on another (e.g. 9 x 25 x 10 cells of 1.6 x 0.9 x 1.3): the pruned offsets
+    (cells whose closest points are farther apart than r_max) must hold none of them, so an
+    offset pruned with another axis' cell length loses planted pairs.  Exact counts against
+    the brute-force oracle."""
+    box = np.array([14.4, 22.5, 13.0])
+    r_max = 2.5
+    rng = np.random.default_rng(3)
+    m = 1500
+    a = rng.random((m, 3)) * box
+    u = rng.normal(size=(m, 3))
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    b = (a + u * rng.uniform(0.8, 1.0, m)[:, None] * r_max) % box
+    pk = pp.Packing(np.vstack([a, b]), np.full(2 * m, 0.1), box, species=np.repeat([0, 1], m))
+    ref = _oracle_hist(pk, orc.distance_matrix(pk.positions, box), r_max, 25)
+    assert ref[:, :, 20:].sum() > 2 * m  # the planted pairs, in bins [0.8 r_max, r_max)
+    pos = np.ascontiguousarray(pk.positions)
+    sp = np.ascontiguousarray(pk.species, dtype=np.int64)
+    for grid in ([9, 25, 10], [16, 9, 6], [5, 9, 26]):
+        nc = np.array(grid, np.int64)
+        off = kern.half_shell_offsets(nc, box / nc, r_max)
+        assert off.shape[0] > 0
+        fast = kern.pair_histogram_distance(pos, sp, box, 2, r_max, 25, nc, off).reshape(2, 2, 25)
+        np.testing.assert_array_equal(fast, ref, err_msg=str(grid))
+
+
 def test_pairs_within_finds_the_oracle_pairs_and_distances(gas):
     pk = gas
     for a, b in ((1.0, 0.05), (1.2, 0.0), (0.0, 2.0)):
