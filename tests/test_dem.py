@@ -249,6 +249,11 @@ def test_result_to_dict_and_plot(random_net, tmp_path):
     d = r.to_dict(series=True)
     json.dumps(d)
     assert d["per_direction"][0]["voigt"] == "C55"
+    # the cost split: the kernel and the rebuilds are parts of the direction's time
+    row = d["per_direction"][0]
+    assert 0 < row["kernel_seconds"] and row["kernel_seconds"] + row["rebuild_seconds"] <= row["seconds"]
+    assert row["rebuilds"] >= 1 and d["timings"]["directions"] == pytest.approx(row["seconds"])
+    assert d["timings"]["relaxation"] == 0.0 and d["relaxation"] is None  # stress-free: not relaxed
     ax = r.plot()
     assert ax.get_xlabel() == "oscillation cycle"
     ax.figure.savefig(tmp_path / "fig.png")

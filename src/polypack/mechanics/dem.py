@@ -595,6 +595,13 @@ class ShearResult:
         The :func:`relax` record when the structure was relaxed first.
     complete : bool
         False when the run was interrupted.
+    timings : dict
+        Where the time went (wall seconds, ``time.perf_counter``; ``*_cpu`` entries
+        ``time.process_time``): ``critical_step`` (the highest-mode estimate),
+        ``relaxation`` (0 when not relaxed) and ``directions`` (the sum of the per-direction
+        ``seconds``); each ``per_direction`` row also has ``seconds``, ``cpu_seconds``,
+        ``kernel_seconds`` (inside the numba time-stepping kernel), ``rebuild_seconds``
+        and ``rebuilds`` (contact-list rebuilds).
     """
 
     storage_modulus: float
@@ -620,6 +627,7 @@ class ShearResult:
     relaxation: dict | None = None
     complete: bool = True
     parameters: dict = field(default_factory=dict)
+    timings: dict = field(default_factory=dict)
 
     @property
     def complex_modulus(self) -> float:
@@ -633,7 +641,7 @@ class ShearResult:
         keys = ("storage_modulus", "loss_modulus", "storage_modulus_sd", "loss_modulus_sd", "boundary",
                 "frequency", "amplitude", "cycles", "ramp_cycles", "discard_cycles", "time_step",
                 "critical_time_step", "mass_scale", "density", "steps_per_cycle", "inertial_error", "wall_time",
-                "particle_steps_per_second", "complete", "parameters")
+                "particle_steps_per_second", "complete", "parameters", "timings")
         out = {k: getattr(self, k) for k in keys}
         out["complex_modulus"] = self.complex_modulus
         out["phase_angle"] = self.phase_angle
@@ -903,7 +911,9 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
                 f"{net.fsb[c]:.3g} N); lower the amplitude")
 
     # time step and mass scaling
+    t_crit0 = time.perf_counter()
     omega_max1 = _omega_max(net, density)  # at the physical density
+    timings = {"critical_step": time.perf_counter() - t_crit0, "relaxation": 0.0, "relaxation_cpu": 0.0}
     dt_crit1 = 2.0 / omega_max1
     dt = 1.0 / (frequency * steps_per_cycle)
     if mass_scale is None:
@@ -934,7 +944,10 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
         scale = 1e-6 * float(np.median(net.kn)) * float(np.mean(d))
         need = bool(relax_first) if relax_first is not None else fu > scale
         if need:
+            t_rel0, c_rel0 = time.perf_counter(), time.process_time()
             rr = relax(network, density=density, progress=progress)
+            timings["relaxation"] = time.perf_counter() - t_rel0
+            timings["relaxation_cpu"] = time.process_time() - c_rel0
             pos_start = rr.positions
             relax_rec = rr.to_dict()
 
@@ -957,9 +970,14 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
     section.__enter__()
     try:
         for (g, a) in dirs:
+            t_dir0, c_dir0 = time.perf_counter(), time.process_time()
+            t_kernel = t_rebuild = 0.0
+            n_rebuild = 1
             sys_ = _System(net, pos_start.copy(), rho, boundary, g, a, friction, layers)
             n_free = int(np.sum(sys_.kind == K.KIND_FREE))
+            t_rb = time.perf_counter()
             sys_.rebuild(0.0, g, a, boundary)
+            t_rebuild += time.perf_counter() - t_rb
             # start on the affine flow of the first cycle (no jolt at t = 0)
             a1 = amplitude * min(1.0, 1.0 / ramp)
             gdot0 = a1 * omega
@@ -989,16 +1007,21 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
             try:
                 while done < total:
                     nstep = min(chunk, total - done)
+                    t_k = time.perf_counter()
                     status, steps, ns = K.run(nstep, sys_.pos, sys_.vel, sys_.omg, sys_.radii, sys_.mass,
                                               sys_.inertia, sys_.kind, sys_.pos0, sys_.h0, *sys_.contacts.args(),
                                               p, sys_.st, samples, ns, sys_.xbuild, edges_all, layer_samples)
+                    t_kernel += time.perf_counter() - t_k
                     done += steps
                     steps_run += steps
                     n_part += steps * n_free
                     bar.update(steps)
                     if status == K.STATUS_REBUILD:
                         gam = float(K.strain_at(int(sys_.st[K.ST_STEP]), p))
+                        t_rb = time.perf_counter()
                         sys_.rebuild(gam, g, a, boundary)
+                        t_rebuild += time.perf_counter() - t_rb
+                        n_rebuild += 1
                     elif traj is not None and done % trajectory_every == 0:
                         stp = int(sys_.st[K.ST_STEP])
                         traj.write(sys_, float(K.strain_at(stp, p)), stp * dt, g, a, boundary)
@@ -1015,6 +1038,8 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
                                          layers=layer_samples[:ns] if boundary == "plates" else None,
                                          edges=edges_all)
             if row is not None:
+                row.update(seconds=time.perf_counter() - t_dir0, cpu_seconds=time.process_time() - c_dir0,
+                           kernel_seconds=t_kernel, rebuild_seconds=t_rebuild, rebuilds=n_rebuild)
                 per_dir.append(row)
                 series.append(ser)
             if interrupted:
@@ -1053,6 +1078,7 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
         density=rho, steps_per_cycle=steps_per_cycle, inertial_error=inertial, wall_time=wall,
         particle_steps_per_second=n_part / wall if wall > 0 else math.nan, relaxation=relax_rec,
         complete=not interrupted,
+        timings={**timings, "directions": float(sum(r["seconds"] for r in per_dir))},
         parameters={"damping": damping, "friction": friction, "safety": safety, "layers": layers,
                     "trajectory": str(trajectory) if trajectory is not None and not interrupted else None,
                     "trajectory_frames": traj.frames if traj is not None else 0,
