@@ -164,7 +164,7 @@ def test_gsd_reads_foreign_hoomd_file_without_polypack_log(tmp_path):
 
 
 def test_extxyz_readable_by_ase(tmp_path):
-    ase_io = pytest.importorskip("ase.io")
+    import ase.io as ase_io  # in the test extra: a missing install fails, never skips
     pk = random_pack(np.random.default_rng(12), n=50)
     path = tmp_path / "p.xyz"
     pp.io.write(path, pk)

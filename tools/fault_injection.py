@@ -224,26 +224,29 @@ def cli_env():
 _STARTUP = {}
 
 
-def startup_seconds():
-    """Wall time of ``python -m polypack --version`` (interpreter + numpy start; before it a
-    SIGINT is Python's own KeyboardInterrupt at start-up, not polypack's business)."""
-    if "t" not in _STARTUP:
+def _startup():
+    """Wall and CPU time (user + system) of ``import polypack`` in a fresh interpreter, measured once."""
+    if not _STARTUP:
+        import resource
+
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
         subprocess.run([sys.executable, "-c", "import polypack"], env=cli_env(), check=True)
         _STARTUP["t"] = time.perf_counter() - t0
-    return _STARTUP["t"]
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        _STARTUP["cpu"] = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return _STARTUP
+
+
+def startup_seconds():
+    """Wall time of ``import polypack`` in a fresh interpreter (interpreter + numpy start; before
+    it a SIGINT is Python's own KeyboardInterrupt at start-up, not polypack's business)."""
+    return _startup()["t"]
 
 
 def startup_cpu_seconds():
     """CPU time (user + system) of ``import polypack`` in a fresh interpreter."""
-    if "cpu" not in _STARTUP:
-        import resource
-
-        before = resource.getrusage(resource.RUSAGE_CHILDREN)
-        subprocess.run([sys.executable, "-c", "import polypack"], env=cli_env(), check=True)
-        after = resource.getrusage(resource.RUSAGE_CHILDREN)
-        _STARTUP["cpu"] = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    return _STARTUP["cpu"]
+    return _startup()["cpu"]
 
 
 def _cpu_seconds(pid):

@@ -180,8 +180,8 @@ MUTANTS = [
            "unordered = np.where(diag, cp / 2.0, cp)", "unordered = np.where(diag, cp, cp)",
            (T_EB, "tests/test_analysis_rdf.py"), "factor sqrt 2"),
     Mutant("a-rdf-shell-volume", A + "rdf.py",
-           "            vol = shell_measure(r, 3) * (2.0 * h)\n",
-           "            vol = shell_measure(r, 3) * h\n",
+           "            vol = shell_measure(r, self._dim) * (2.0 * h)\n",
+           "            vol = shell_measure(r, self._dim) * h\n",
            ("tests/test_analysis_rdf.py",), "factor 2"),
     Mutant("a-contact-err", A + "rdf.py",
            "sig = np.sqrt(np.maximum(cnt, 1.0)) * g / np.maximum(cnt, 1.0)",
@@ -234,15 +234,15 @@ MUTANTS = [
            "fac = min(1.4, max(0.7, target_acceptance / acc[k]))",
            T_SHAKE, "wrong sign (inverted feedback)"),
     Mutant("g-pack-event-budget", G + "lubachevsky.py",
-           "ev_budget = int(max_events) - int(state[2])", "ev_budget = int(max_events)",
+           "ev_budget = int(max_events) - int(state[edmd.S_EVENTS])", "ev_budget = int(max_events)",
            T_PACK, "budget not decremented"),
     Mutant("g-pack-cs", G + "lubachevsky.py",
            "return (1 + eta + eta**2 - eta**3) / (1 - eta) ** 3",
            "return (1 + eta + eta**2 - 2 * eta**3) / (1 - eta) ** 3",
            T_PACK, "wrong coefficient"),
     # ------------------------------------------------------- study / ensemble
-    Mutant("e-discretize-ignored", E + "stages.py",
-           'if psd["sampling"] == "discretize":', 'if psd["sampling"] == "discretise":',
+    Mutant("e-discretize-ignored", P + "config.py",
+           'if resolved["sampling"] == "discretize":', 'if resolved["sampling"] == "discretise":',
            ("tests/test_pipeline_options.py",), "option ignored"),
     Mutant("e-shake-keys", E + "stages.py",
            '("max_trials", "max_trials"), ("shake_method", "method")',
@@ -268,6 +268,170 @@ MUTANTS += [
            "        g += ci * (m.shear + z) * (1.0 - (m.shear + z) * _inv(p.shear + z))\n",
            "        g -= ci * (m.shear + z) * (1.0 - (m.shear + z) * _inv(p.shear + z))\n",
            ("tests/test_mechanics_effective.py",), "wrong sign"),
+]
+
+
+# round 2 (session 5): mechanics, Brownian dynamics, VEM, deposition, 2D EDMD, ensemble, stages
+M = "src/polypack/mechanics/"
+T_NET = ("tests/test_mechanics_network.py",)
+T_EL = ("tests/test_mechanics_elastic.py",)
+T_EFF = ("tests/test_mechanics_effective.py",)
+T_DEM = ("tests/test_dem.py",)
+T_3PT = ("tests/test_analysis_threepoint.py",)
+T_BD = ("tests/test_brownian.py", "tests/test_dlvo.py")
+T_BDR = ("tests/test_brownian_rigid.py",)
+T_VEM = ("tests/test_vem.py",)
+T_DEP2 = ("tests/test_deposit.py",)
+T_DEP3 = ("tests/test_deposit3d.py",)
+T_P2D = ("tests/test_pack2d.py",)
+T_ST = ("tests/test_stages_mechanics.py",)
+MUTANTS += [
+    # bonded networks
+    Mutant("m-net-bond-rule", M + "network.py",
+           "pi, pj, _ = _candidate_pairs(packing, 1.0 + eps)", "pi, pj, _ = _candidate_pairs(packing, 1.0 + 2.0 * eps)",
+           T_NET, "factor 2 (bonding distance)"),
+    Mutant("m-net-shift-sign", M + "network.py",
+           "shift = np.where(periodic, -np.round(delta / box), 0.0).astype(np.int64)",
+           "shift = np.where(periodic, np.round(delta / box), 0.0).astype(np.int64)",
+           T_NET, "wrong sign (periodic image)"),
+    Mutant("m-net-rattler-threshold", M + "network.py",
+           "        return self._peel(2)\n", "        return self._peel(1)\n",
+           T_NET, "off-by-one (rattler rule)"),
+    Mutant("m-net-lever-arm", M + "network.py",
+           "return (r[self._i] - 0.5 * self.overlap)[:, None] * self._normal",
+           "return (r[self._i] - self.overlap)[:, None] * self._normal",
+           T_NET + T_EL, "factor 2 (contact point)"),
+    Mutant("k-net-peel-strict", K + "network.py",
+           "            if deg[q] < min_bonds:\n", "            if deg[q] <= min_bonds:\n",
+           T_NET, "off-by-one (recursive peel)"),
+    # exact elastic tensor
+    Mutant("m-el-affine-voigt", M + "elastic.py",
+           "w = 1.0 if p == r else 0.5", "w = 1.0 if p == r else 1.0",
+           T_EL, "factor 2 (engineering shear)"),
+    Mutant("m-el-spring-matrix", M + "elastic.py",
+           "k = (kn - ks)[:, None, None] * n[:, :, None] * n[:, None, :] + ks[:, None, None] * np.eye(3)",
+           "k = (kn + ks)[:, None, None] * n[:, :, None] * n[:, None, :] + ks[:, None, None] * np.eye(3)",
+           T_EL, "wrong sign"),
+    Mutant("m-el-voigt-average-g", M + "elastic.py",
+           "return (a + 2.0 * b) / 9.0, (a - b + 3.0 * s) / 15.0", "return (a + 2.0 * b) / 9.0, (a - b + 2.0 * s) / 15.0",
+           T_EL, "wrong coefficient (isotropic average)"),
+    Mutant("m-el-reuss", M + "elastic.py",
+           "return 1.0 / (a + 2.0 * b), 15.0 / (4.0 * a - 4.0 * b + 3.0 * t)",
+           "return 1.0 / (a + 2.0 * b), 15.0 / (4.0 * a - 4.0 * b + 4.0 * t)",
+           T_EL, "wrong coefficient (Reuss average)"),
+    Mutant("k-net-assemble-voigt", K + "network.py",
+           "        A[0, 4] = 0.5 * b2\n", "        A[0, 4] = b2\n",
+           T_EL, "factor 2 (engineering shear)"),
+    Mutant("k-net-assemble-arm-sign", K + "network.py",
+           "                    Bj[r, 3 + s] = -X[r, s] / ell\n", "                    Bj[r, 3 + s] = X[r, s] / ell\n",
+           T_EL, "wrong sign (lever arm of j)"),
+    # DEM: contact law, damping, Lees-Edwards
+    Mutant("k-dem-damping-sign", K + "dem.py",
+           "                if vr > 0.0:\n                    fd = -alpha * abs(f)\n",
+           "                if vr > 0.0:\n                    fd = alpha * abs(f)\n",
+           T_DEM, "wrong sign (local damping)"),
+    Mutant("k-dem-le-streaming", K + "dem.py",
+           "                    vr = v - gdot * pos[i, g]\n", "                    vr = v + gdot * pos[i, g]\n",
+           T_DEM, "wrong sign (Lees-Edwards streaming velocity)"),
+    Mutant("k-dem-le-shift", K + "dem.py",
+           "            h[a, g] += gam * lg\n", "            h[g, a] += gam * lg\n",
+           T_DEM, "swapped indices (Lees-Edwards tilt)"),
+    Mutant("k-contact-lever", K + "contacts.py",
+           "        li = 0.5 * (d + ri - rj)\n", "        li = 0.5 * (d + rj - ri)\n",
+           T_DEM, "swapped radii (lever arm)"),
+    Mutant("k-contact-tension", K + "contacts.py",
+           "        if -fn >= fnb:\n", "        if fn >= fnb:\n",
+           T_DEM, "wrong sign (tensile breakage)"),
+    # effective moduli
+    Mutant("m-eff-mt-reference", M + "effective.py",
+           "return Phase(bulk=_lam(m.shear, bulks, c), shear=_gam(zeta_reference(m.bulk, m.shear), shears, c))",
+           "return Phase(bulk=_lam(m.bulk, bulks, c), shear=_gam(zeta_reference(m.bulk, m.shear), shears, c))",
+           T_EFF, "wrong reference modulus (Mori-Tanaka)"),
+    Mutant("m-eff-lambda-43", M + "effective.py",
+           "return _hs_form(bulks, c, 4.0 * z / 3.0)", "return _hs_form(bulks, c, 2.0 * z / 3.0)",
+           T_EFF, "factor 2 (HS bulk form)"),
+    Mutant("m-eff-hs-upper", M + "effective.py",
+           "shear=_gam(zeta_reference(kmax, gmax), shears, c))", "shear=_gam(zeta_reference(kmin, gmax), shears, c))",
+           T_EFF, "wrong extreme (HS upper bound)"),
+    Mutant("m-eff-3pt-tilde", M + "effective.py",
+           "        tilde = phi2 * m1 + phi1 * m2\n", "        tilde = phi1 * m1 + phi2 * m2\n",
+           T_EFF, "swapped fractions (three-point bound)"),
+    # three-point parameters
+    Mutant("a-3pt-zeta-phi1", A + "threepoint.py",
+           "zeta2 = 9.0 * j2 / (2.0 * phi1 * phi2)", "zeta2 = 9.0 * j2 / (2.0 * phi2)",
+           T_3PT, "dropped factor"),
+    Mutant("a-3pt-eta-coefficient", A + "threepoint.py",
+           "eta2 = 5.0 * zeta2 / 21.0 + 150.0 * j4", "eta2 = 5.0 * zeta2 / 7.0 + 150.0 * j4",
+           T_3PT, "wrong coefficient"),
+    Mutant("k-3pt-f4", K + "threepoint.py",
+           "w4 = w2 * (1.0 - 1.4 * asqt / r2)", "w4 = w2 * (1.0 - 1.2 * asqt / r2)",
+           T_3PT, "wrong coefficient (ball field l = 4)"),
+    # Brownian dynamics and DLVO
+    Mutant("g-bd-noise", G + "brownian.py",
+           "params[bd.P_NOISE] = math.sqrt(2.0 * dt_r)", "params[bd.P_NOISE] = math.sqrt(dt_r)",
+           T_BD, "factor sqrt 2 (noise amplitude)"),
+    Mutant("g-dlvo-force-sign", G + "dlvo.py",
+           "    return v_vdw + v_el, -(dv_vdw + dv_el)\n", "    return v_vdw + v_el, dv_vdw + dv_el\n",
+           T_BD, "wrong sign (DLVO force)"),
+    Mutant("g-dlvo-lsa-force", G + "dlvo.py",
+           "dv_el = pref * ex * (-kappa / r - 1.0 / (r * r))", "dv_el = pref * ex * (-kappa / r + 1.0 / (r * r))",
+           T_BD, "wrong sign (screened Coulomb derivative)"),
+    Mutant("k-bd-drift-cap", K + "bd.py",
+           "at most cap_drift * h\n                fmax = cap_drift * max(h, 0.0) / (2.0 * dt)\n",
+           "at most cap_drift * h\n                fmax = cap_drift * max(h, 0.0) / dt\n",
+           T_BD, "factor 2 (both spheres move)"),
+    Mutant("k-bd-rigid-drag", K + "bd.py",
+           "        sm = 1.0 / np.sqrt(m)\n", "        sm = 1.0 / m\n",
+           T_BDR, "wrong power (cluster noise)"),
+    # void expansion
+    Mutant("k-vem-classify", K + "vem.py",
+           "        if i < n_struct and j < n_struct:\n", "        if i < n_struct or j < n_struct:\n",
+           T_VEM, "wrong condition"),
+    Mutant("g-vem-void-stiffness", G + "vem.py",
+           "self.ckn = np.where(struct, self.kn, self.knv)", "self.ckn = np.where(struct, self.knv, self.kn)",
+           T_VEM, "swapped stiffnesses"),
+    Mutant("g-vem-coordination", G + "vem.py",
+           "c = 2.0 * st[V.C_STRUCT_CONTACTS] / ns", "c = 2.0 * st[V.C_STRUCT_CONTACTS] / (ns + n_void)",
+           T_VEM, "wrong denominator"),
+    # deposition
+    Mutant("k-dep2-tie-rule", K + "deposit.py",
+           "    if y <= best_y + tie and x < best_x:\n", "    if y <= best_y + tie and x > best_x:\n",
+           T_DEP2, "inverted tie rule"),
+    Mutant("k-dep2-pair-between", K + "deposit.py",
+           "    if px < lo or px > hi:\n        return False, 0.0, 0.0, -1, -1\n    return True, xi + px",
+           "    if px < lo and px > hi:\n        return False, 0.0, 0.0, -1, -1\n    return True, xi + px",
+           T_DEP2, "dropped check (equilibrium on the pair)"),
+    Mutant("k-dep3-stable", K + "deposit3d.py",
+           "    return l0 >= -tol and l1 >= -tol and l2 >= -tol\n", "    return l0 >= -tol and l1 >= -tol\n",
+           T_DEP3, "dropped check (stability cone)"),
+    Mutant("k-dep3-stable-ly", K + "deposit3d.py",
+           "            d1 = _mi(p[1] - pos[s, 1], L[1], per[1])\n", "            d1 = _mi(p[1] - pos[s, 1], L[0], per[0])\n",
+           T_DEP3, "swapped box length"),
+    # 2D event-driven packing
+    Mutant("k-edmd-window-pressure", K + "edmd.py",
+           "    p = 1.0 + w_vir / (2.0 * w_ke) if w_ke > 0.0 else INF\n",
+           "    p = 1.0 + w_vir / (3.0 * w_ke) if w_ke > 0.0 else INF\n",
+           T_P2D + ("tests/test_pack.py",), "wrong dimension factor (2D and 3D share it)"),
+    Mutant("k-edmd2d-predict-ly", K + "edmd2d.py",
+           "        dy = min_image(x[j, 1] + v[j, 1] * dtj - xi1, box[1])\n",
+           "        dy = min_image(x[j, 1] + v[j, 1] * dtj - xi1, box[0])\n",
+           T_P2D, "swapped box length"),
+    # ensemble statistics, study stages
+    Mutant("e-t-one-sided", E + "runner.py",
+           "q = student_t.ppf(0.5 + 0.5 * CI_LEVEL,", "q = student_t.ppf(CI_LEVEL,",
+           (T_EB, "tests/test_ensemble.py"), "one-sided quantile"),
+    Mutant("e-se-ddof", E + "runner.py",
+           "sd = np.nanstd(y, axis=0, ddof=1) if len(sets) > 1", "sd = np.nanstd(y, axis=0, ddof=0) if len(sets) > 1",
+           (T_EB, "tests/test_ensemble.py"), "off-by-one (degrees of freedom)"),
+    Mutant("m-stage-ks-default", M + "stages.py",
+           "ks = kn / 10.0 if ks is None else float(ks)", "ks = kn * 10.0 if ks is None else float(ks)",
+           T_ST, "inverted ratio"),
+    Mutant("m-stage-protocol-bonds", M + "stages.py",
+           'if rule != "distance" and has:', 'if rule == "protocol" and has:',
+           T_ST, "option misrouted (auto ignores the BD bonds)"),
+    Mutant("m-stage-radius-scale", M + "stages.py",
+           "s = float(radius) / float(np.mean(packing.radii))", "s = float(radius) / float(np.max(packing.radii))",
+           T_ST, "wrong reference"),
 ]
 
 
@@ -372,6 +536,15 @@ def main(argv=None):
     cache_base = work / "numba"
     _copy_tree(tree)
     clean_digest = _kernel_digest(tree / "src")
+
+    # compile every kernel of the unmodified tree once (``polypack warmup``): the seed of
+    # the per-mutant caches, so a kernel mutant recompiles only its own module(s)
+    env = dict(os.environ, PYTHONPATH=str(tree / "src"), NUMBA_CACHE_DIR=str(cache_base / clean_digest))
+    t0 = time.perf_counter()
+    wr = subprocess.run([sys.executable, "-m", "polypack.cli", "warmup"], cwd=tree, env=env,
+                        capture_output=True, text=True)
+    print(f"kernels compiled in {time.perf_counter() - t0:.0f} s" if wr.returncode == 0
+          else f"warmup failed: {(wr.stderr.strip().splitlines() or [''])[-1]}", flush=True)
 
     if not args.no_baseline:
         tests = sorted({t for m in mutants for t in m.tests})

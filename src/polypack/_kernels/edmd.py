@@ -471,21 +471,26 @@ def _local_rebuild(i, rho_new, x, box, xb, rho, off, nn, nbr, level, nlev, rho_m
     return ok
 
 
+# The helpers below serve the 3D kernel and the 2D one (polypack._kernels.edmd2d): they
+# loop over the ``dim = x.shape[1]`` coordinates in the same order as written-out code,
+# so results are bit for bit those of a separate copy per dimension.
 @njit(cache=True)
 def _sync_all(x, v, tl, t):
+    """Advance every sphere (disk) from its own time ``tl[i]`` to ``t``."""
     n = x.shape[0]
     for i in range(n):
         dt = t - tl[i]
-        for k in range(3):
+        for k in range(x.shape[1]):
             x[i, k] += v[i, k] * dt
         tl[i] = t
 
 
 @njit(cache=True)
 def _wrap(x, box):
+    """Fold the centres into ``[0, L)`` on every axis."""
     n = x.shape[0]
     for i in range(n):
-        for k in range(3):
+        for k in range(x.shape[1]):
             L = box[k]
             y = x[i, k]
             if y < 0.0 or y >= L:
@@ -499,17 +504,22 @@ def _wrap(x, box):
 
 @njit(cache=True)
 def kinetic_energy(v):
+    """``sum_i |v_i|^2 / 2`` (unit masses), any dimension."""
     e = 0.0
     for i in range(v.shape[0]):
-        e += v[i, 0] * v[i, 0] + v[i, 1] * v[i, 1] + v[i, 2] * v[i, 2]
+        s = 0.0
+        for k in range(v.shape[1]):
+            s += v[i, k] * v[i, k]
+        e += s
     return 0.5 * e
 
 
 @njit(cache=True)
 def _thermalise(v, speed=1.0):
-    """Remove net momentum and rescale to kinetic energy ``3N speed^2 / 2`` (kT = speed^2, m = 1)."""
+    """Remove net momentum and rescale to kinetic energy ``dim N speed^2 / 2`` (kT = speed^2, m = 1)."""
     n = v.shape[0]
-    for k in range(3):
+    dim = v.shape[1]
+    for k in range(dim):
         s = 0.0
         for i in range(n):
             s += v[i, k]
@@ -518,10 +528,29 @@ def _thermalise(v, speed=1.0):
             v[i, k] -= s
     ke = kinetic_energy(v)
     if ke > 0.0:
-        f = speed * math.sqrt(1.5 * n / ke)
+        f = speed * math.sqrt(0.5 * dim * n / ke)
         for i in range(n):
-            for k in range(3):
+            for k in range(dim):
                 v[i, k] *= f
+
+
+@njit(cache=True)
+def _close_window(t, w_ke, w_vir, w_coll, hist, n_hist, state):
+    """End a pressure window; returns ``(p, n_hist)``.
+
+    ``p = 1 + sum J d / (2 int KE dt)``, the reduced collisional virial pressure
+    ``PV/(N kT)`` in 3D and ``PA/(N kT)`` in 2D alike (``KE = dim N kT / 2``), is
+    recorded in ``hist`` while it has room; the window's sums go into ``state``.
+    """
+    p = 1.0 + w_vir / (2.0 * w_ke) if w_ke > 0.0 else INF
+    if n_hist < hist.shape[0]:
+        hist[n_hist, 0] = t
+        hist[n_hist, 1] = p
+        hist[n_hist, 2] = w_coll
+        n_hist += 1
+    state[S_VIRIAL] += w_vir
+    state[S_KE_INTEGRAL] += w_ke
+    return p, n_hist
 
 
 @njit(cache=True)
@@ -660,7 +689,6 @@ def run_chunk(x, v, g, box, state, params, hist):
     g_margin = params[P_MARGIN_CAP] * np.median(g)
 
     n_hist = 0
-    h_cap = hist.shape[0]
     status = CHUNK_DONE
     coll = 0
     events = 0
@@ -800,14 +828,7 @@ def run_chunk(x, v, g, box, state, params, hist):
         if w_coll >= window:
             w_ke += ke * (t - t_last)
             t_last = t
-            p = 1.0 + w_vir / (2.0 * w_ke) if w_ke > 0.0 else INF
-            if n_hist < h_cap:
-                hist[n_hist, 0] = t
-                hist[n_hist, 1] = p
-                hist[n_hist, 2] = w_coll
-                n_hist += 1
-            state[S_VIRIAL] += w_vir
-            state[S_KE_INTEGRAL] += w_ke
+            p, n_hist = _close_window(t, w_ke, w_vir, w_coll, hist, n_hist, state)
             w_coll = 0
             w_vir = 0.0
             w_ke = 0.0

@@ -33,7 +33,8 @@ from .edmd import (BOX_LIMIT, CHUNK_DONE, EVENT_BUDGET, INF, JAMMED, N_PARAMS, N
                    P_DILUTE, P_MARGIN_CAP, P_MAX_COLLISIONS, P_MAX_EVENTS, P_MAX_PRESSURE, P_PRESSURE_WINDOW,
                    P_SPEED, P_SYNC_EVERY, P_T_REF, P_T_STOP, REACHED_T_STOP, S_COLLISIONS, S_EVENTS,
                    S_KE_INTEGRAL, S_LOCAL_REBUILDS, S_REBUILDS, S_STATUS, S_TIME, S_VIRIAL, ChunkStatus,
-                   _axis_cell, _grid_move, _heap_build, _heap_update, _levels, _shell_radius, exit_time,
+                   _axis_cell, _close_window, _grid_move, _heap_build, _heap_update, _levels, _shell_radius,
+                   _sync_all, _thermalise, _wrap, exit_time, kinetic_energy,
                    make_params, pair_time, shell_reach)
 
 __all__ = ["ChunkStatus", "make_params", "run_chunk", "next_event_brute", "N_STATE", "N_PARAMS"]
@@ -250,59 +251,6 @@ def _local_rebuild(i, rho_new, x, box, xb, rho, off, nn, nbr, level, nlev, rho_m
 
 
 @njit(cache=True)
-def _sync_all(x, v, tl, t):
-    n = x.shape[0]
-    for i in range(n):
-        dt = t - tl[i]
-        x[i, 0] += v[i, 0] * dt
-        x[i, 1] += v[i, 1] * dt
-        tl[i] = t
-
-
-@njit(cache=True)
-def _wrap(x, box):
-    n = x.shape[0]
-    for i in range(n):
-        for k in range(2):
-            L = box[k]
-            y = x[i, k]
-            if y < 0.0 or y >= L:
-                y -= L * math.floor(y / L)
-                if y >= L:
-                    y -= L
-                if y < 0.0:
-                    y = 0.0
-                x[i, k] = y
-
-
-@njit(cache=True)
-def kinetic_energy(v):
-    e = 0.0
-    for i in range(v.shape[0]):
-        e += v[i, 0] * v[i, 0] + v[i, 1] * v[i, 1]
-    return 0.5 * e
-
-
-@njit(cache=True)
-def _thermalise(v, speed=1.0):
-    """Remove net momentum and rescale to kinetic energy ``N speed^2`` (2D: kT = speed^2, m = 1)."""
-    n = v.shape[0]
-    for k in range(2):
-        s = 0.0
-        for i in range(n):
-            s += v[i, k]
-        s /= n
-        for i in range(n):
-            v[i, k] -= s
-    ke = kinetic_energy(v)
-    if ke > 0.0:
-        f = speed * math.sqrt(n / ke)
-        for i in range(n):
-            v[i, 0] *= f
-            v[i, 1] *= f
-
-
-@njit(cache=True)
 def run_chunk(x, v, g, box, state, params, hist):
     """Advance the growing hard-disk system by up to ``params[P_MAX_COLLISIONS]`` collisions.
 
@@ -343,7 +291,6 @@ def run_chunk(x, v, g, box, state, params, hist):
     g_margin = params[P_MARGIN_CAP] * np.median(g)
 
     n_hist = 0
-    h_cap = hist.shape[0]
     status = CHUNK_DONE
     coll = 0
     events = 0
@@ -476,14 +423,7 @@ def run_chunk(x, v, g, box, state, params, hist):
         if w_coll >= window:
             w_ke += ke * (t - t_last)
             t_last = t
-            p = 1.0 + w_vir / (2.0 * w_ke) if w_ke > 0.0 else INF
-            if n_hist < h_cap:
-                hist[n_hist, 0] = t
-                hist[n_hist, 1] = p
-                hist[n_hist, 2] = w_coll
-                n_hist += 1
-            state[S_VIRIAL] += w_vir
-            state[S_KE_INTEGRAL] += w_ke
+            p, n_hist = _close_window(t, w_ke, w_vir, w_coll, hist, n_hist, state)
             w_coll = 0
             w_vir = 0.0
             w_ke = 0.0
