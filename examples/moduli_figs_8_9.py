@@ -5,7 +5,7 @@ system of Fig. 8) with equal spheres, and AP in HTPB (binder 1.8 MPa, ν = 0.499
 AP 32.4 GPa, ν = 0.143) with seed 000's bimodal sizes (λ = 0.313, ξ = 0.333). For
 each volume fraction, ``--realizations`` CRM packs (``pp.pack``) and the same packs
 shaken (SCRM, ``pp.shake``); the MEFM uses each pack's measured partial RDFs, the
-three-point bulk bounds each pack's ζ2. Error bars: standard errors over the
+three-point bounds each pack's ζ2 and η2. Error bars: standard errors over the
 realizations.
 
 Usage: ``python examples/moduli_figs_8_9.py [--n 1000] [--realizations 4] [--shakes 10]

@@ -172,15 +172,16 @@ def test_three_point_bounds_second_order_in_contrast():
 
 def test_three_point_bulk_bounds_inside_hs_and_narrower():
     rng = np.random.default_rng(3)
-    for _ in range(500):
+    for _ in range(60):
         m = Phase(*rng.uniform(0.5, 2, 2))
         f = Phase(m.bulk * 10 ** rng.uniform(-2, 2), m.shear * 10 ** rng.uniform(-2, 2))
         c = rng.uniform(0.02, 0.65)
-        z2 = rng.uniform(0.0, 1.0)
-        lo, up = three_point_bounds(m, f, c, z2, 0.3)
+        z2, e2 = rng.uniform(0.0, 1.0, 2)
+        lo, up = three_point_bounds(m, f, c, z2, e2)
         hl, hu = hashin_shtrikman([m, f], [1 - c, c])
         assert hl.bulk * (1 - 1e-12) <= lo.bulk <= up.bulk * (1 + 1e-12) <= hu.bulk * (1 + 2e-12)
-        assert (lo.shear, up.shear) == (hl.shear, hu.shear)  # shear: the HS bounds (documented gap)
+        # shear: the variational three-point bounds, also for phases that are not well ordered
+        assert hl.shear * (1 - 1e-9) <= lo.shear <= up.shear * (1 + 1e-9) <= hu.shear * (1 + 1e-9)
     # hard-sphere-like zeta2 shrinks the bulk window well below the HS one for glass/epoxy
     m, f = Phase.from_young(3.01, 0.394), Phase.from_young(76, 0.23)
     lo, up = three_point_bounds(m, f, 0.5, 0.0937, 0.3)

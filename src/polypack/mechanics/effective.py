@@ -382,7 +382,7 @@ def _wavg(a1, a2, w2):
 
 
 def three_point_bounds(matrix, inclusion, fraction, zeta2, eta2):
-    """Three-point bounds of a two-phase composite from ζ2 (bulk) and η2 (shear).
+    """Three-point bounds of a two-phase composite from ζ2 and η2.
 
     Phase 1 is the matrix (fraction ``φ1 = 1 − φ2``), phase 2 the inclusions. With
     ``⟨b⟩ = φ1 b1 + φ2 b2``, ``⟨b̃⟩ = φ2 b1 + φ1 b2`` and ``⟨b⟩_ζ = ζ1 b1 + ζ2 b2``
@@ -394,11 +394,26 @@ def three_point_bounds(matrix, inclusion, fraction, zeta2, eta2):
     They reduce to the Hashin-Shtrikman bounds at ``ζ2 = 0`` and ``1`` and are exact to
     second order in the phase contrast.
 
-    **Shear: not the three-point bounds.** The McCoy / Milton-Phan-Thien shear bounds
-    (which use η2) could not be checked against the printed forms of Torquato (2002)
-    here; reconstructions from memory failed the ordering and HS-containment checks,
-    so the shear entries returned are the (valid, two-point) Hashin-Shtrikman-Walpole
-    bounds and ``eta2`` is only validated, not used. This is a known gap.
+    **Shear (derived here).** The shear bounds are the minimum-energy bounds of the
+    classical variational principles with the trial fields ``ε̄ − Γ0 ∗ [(χ2 − φ2) T]``
+    (upper) and ``σ̄ − Δ0 ∗ [(χ2 − φ2) T]`` (lower): Γ0, Δ0 the strain and stress Green
+    operators of an isotropic reference medium, χ2 the indicator of the inclusions and
+    ``T`` a constant tensor. The trial energies are exact functionals of φ2, ζ2 and η2
+    for statistically isotropic media (the three-point term is a sum of the l = 2 and
+    l = 4 Legendre moments of S3, i.e. of ζ2 and ``η2 − 5ζ2/21``), minimised over ``T``
+    in closed form and over the reference Poisson ratio numerically (the reference
+    shear modulus drops out); :mod:`polypack.mechanics._threepoint_bounds` has the
+    formulas. The same construction applied to the bulk modulus gives exactly the
+    Beran-Molyneux bounds above (to 1e-12, tests), and the shear bounds reduce to the
+    Hashin-Shtrikman bounds at ``ζ2 = η2 = 0`` and ``1``, lie inside them, are
+    invariant under relabelling the phases (``ζ2, η2 → 1 − ζ2, 1 − η2``) and agree with
+    each other to third order in the contrast. Both are rigorous for any realizable
+    ``(ζ2, η2)``; for pairs far from those of dispersions (e.g. ``ζ2 = 0.5, η2 = 0``) they
+    cross, which proves that no microstructure has them (``InfeasibleError``; packs of
+    spheres have ``η2 ≈ 2.3 ζ2``). They are of the McCoy / Milton-Phan-Thien
+    kind (same variational principles and three-point information); whether they
+    coincide with the printed Milton-Phan-Thien forms (Torquato 2002, ch. 21-23) could
+    not be checked here, as no copy of those forms was available.
 
     Parameters
     ----------
@@ -412,11 +427,22 @@ def three_point_bounds(matrix, inclusion, fraction, zeta2, eta2):
     -------
     lower, upper : Phase
 
+    Raises
+    ------
+    InvalidInputError
+        On fractions or parameters outside [0, 1], or infinite or zero phase moduli.
+    InfeasibleError
+        If the shear bounds cross (``(ζ2, η2)`` not realizable).
+
     References
     ----------
     .. [1] M. J. Beran, J. Molyneux, Q. Appl. Math. 24, 107 (1966).
     .. [2] G. W. Milton, J. Mech. Phys. Solids 30, 177 (1982).
     .. [3] S. Torquato, *Random Heterogeneous Materials*, Springer (2002), ch. 21-23.
+    .. [4] N. A. McCoy, in *Recent Advances in Engineering Science* 5, 235 (1970);
+           G. W. Milton, N. Phan-Thien, Proc. R. Soc. Lond. A 380, 305 (1982).
+    .. [5] Z. Hashin, S. Shtrikman, J. Mech. Phys. Solids 11, 127 (1963) (variational
+           principles with Green operators).
     """
     p1, p2 = _as_phase(matrix, "matrix"), _as_phase(inclusion, "inclusion")
     phi2 = float(fraction)
@@ -446,5 +472,17 @@ def three_point_bounds(matrix, inclusion, fraction, zeta2, eta2):
     igz = _wavg(1 / p1.shear, 1 / p2.shear, z2)
     k_up = form(k1, k2, 4.0 * gz / 3.0)
     k_lo = form(k1, k2, 4.0 / (3.0 * igz))
-    hs_lo, hs_up = hashin_shtrikman([p1, p2], [phi1, phi2])
-    return Phase(bulk=k_lo, shear=hs_lo.shear), Phase(bulk=k_up, shear=hs_up.shear)
+    if phi1 * phi2 == 0.0:
+        g = phi1 * p1.shear + phi2 * p2.shear
+        return Phase(bulk=k_lo, shear=g), Phase(bulk=k_up, shear=g)
+    from ._threepoint_bounds import variational_bound
+
+    pair = ((p1.bulk, p1.shear), (p2.bulk, p2.shear))
+    g_up, _ = variational_bound(*pair, phi2, z2, e2, "shear", "upper")
+    g_lo, _ = variational_bound(*pair, phi2, z2, e2, "shear", "lower")
+    if g_lo > g_up * (1.0 + 1e-9):
+        raise InfeasibleError(
+            f"zeta2={z2:g}, eta2={e2:g} at fraction {phi2:g}: the three-point shear bounds cross "
+            f"(lower {g_lo:.6g} > upper {g_up:.6g}), so no microstructure has these parameters"
+        )
+    return Phase(bulk=k_lo, shear=g_lo), Phase(bulk=k_up, shear=g_up)

@@ -1,0 +1,128 @@
+"""Three-point shear bounds (variational, ζ2 and η2): derivation checks, limits, containment, contrast expansion."""
+
+import numpy as np
+import pytest
+
+from polypack.errors import InfeasibleError
+from polypack.mechanics import Phase, hashin_shtrikman, three_point_bounds
+from polypack.mechanics.effective import zeta_reference
+from polypack.mechanics._threepoint_bounds import _coefficients, variational_bound
+
+EPOXY, GLASS = Phase.from_young(3.01, 0.394), Phase.from_young(76.0, 0.23)
+SYSTEMS = [
+    (EPOXY, GLASS),  # stiff spheres in a soft matrix
+    (GLASS, EPOXY),  # soft spheres in a stiff matrix
+    (Phase(1.0, 1.0), Phase(20.0, 0.3)),  # not well ordered (stiffer in bulk, softer in shear)
+]
+
+
+@pytest.mark.parametrize("m, f", SYSTEMS)
+def test_same_construction_for_the_bulk_modulus_gives_beran_molyneux(m, f):
+    # The derivation's check: the trial-field energies evaluated for a bulk load are the
+    # Beran-Molyneux bounds in Milton's closed form (a different, printed formula). The
+    # angular rules are exact and the bulk energy does not depend on the reference medium;
+    # the minimum over references of that flat function picks up rounding (~1e-10, worse
+    # for references near incompressibility), hence 1e-8; a wrong term would be off by O(1e-2).
+    for c, z2, e2 in ((0.3, 0.1, 0.2), (0.55, 0.4, 0.7), (0.2, 0.9, 0.1)):
+        lo, up = three_point_bounds(m, f, c, z2, e2)
+        pair = ((m.bulk, m.shear), (f.bulk, f.shear))
+        assert variational_bound(*pair, c, z2, e2, "bulk", "upper")[0] == pytest.approx(up.bulk, rel=1e-8)
+        assert variational_bound(*pair, c, z2, e2, "bulk", "lower")[0] == pytest.approx(lo.bulk, rel=1e-8)
+
+
+def test_hill_tensor_is_the_angular_mean_of_the_green_symbol():
+    nu = 0.31
+    k0 = 2 * (1 + nu) / (3 * (1 - 2 * nu))  # G0 = 1
+    p, _, _, _ = _coefficients(nu, False)
+    assert p[0] == pytest.approx(1 / (3 * k0 + 4), rel=1e-13)
+    assert p[1] == pytest.approx(3 * (k0 + 2) / (5 * (3 * k0 + 4)), rel=1e-13)
+
+
+def _hs_form(m, f, c, ref):
+    z = zeta_reference(ref.bulk, ref.shear)
+    return 1.0 / ((1 - c) / (m.shear + z) + c / (f.shear + z)) - z
+
+
+@pytest.mark.parametrize("m, f", SYSTEMS)
+def test_shear_bounds_reduce_to_hashin_shtrikman_at_zero_and_one(m, f):
+    # zeta2 = eta2 = 0 (1) is the microstructure of the Hashin coated spheres with phase 1
+    # (phase 2) as the coating: both bounds collapse on the HS form with that phase as the
+    # reference, i.e. on the HS lower/upper bound when the phases are well ordered
+    for c in (0.1, 0.4, 0.7):
+        l0, u0 = three_point_bounds(m, f, c, 0.0, 0.0)
+        l1, u1 = three_point_bounds(m, f, c, 1.0, 1.0)
+        for b in (l0, u0):
+            assert b.shear == pytest.approx(_hs_form(m, f, c, m), rel=1e-9)
+        for b in (l1, u1):
+            assert b.shear == pytest.approx(_hs_form(m, f, c, f), rel=1e-9)
+    hl, hu = hashin_shtrikman([EPOXY, GLASS], [0.6, 0.4])
+    assert _hs_form(EPOXY, GLASS, 0.4, EPOXY) == pytest.approx(hl.shear, rel=1e-12)
+    assert _hs_form(EPOXY, GLASS, 0.4, GLASS) == pytest.approx(hu.shear, rel=1e-12)
+
+
+# (zeta2, eta2) like those of sphere dispersions (eta2 ~ 2.3 zeta2 for hard spheres and
+# packs, Torquato's dilute slopes 0.21068 and 0.48274) and their phase-relabelled images
+REALISTIC = [(0.02, 0.05), (0.1, 0.23), (0.14, 0.33), (0.3, 0.5), (0.5, 0.6), (0.7, 0.8), (0.9, 0.95)]
+REALISTIC += [(1 - z, 1 - e) for z, e in REALISTIC]
+
+
+@pytest.mark.parametrize("m, f", SYSTEMS)
+def test_shear_bounds_lie_inside_hs_and_are_ordered(m, f):
+    for c in (0.2, 0.5):
+        hl, hu = hashin_shtrikman([m, f], [1 - c, c])
+        for z2, e2 in REALISTIC:
+            lo, up = three_point_bounds(m, f, c, z2, e2)
+            assert hl.shear * (1 - 1e-9) <= lo.shear <= up.shear * (1 + 1e-9) <= hu.shear * (1 + 1e-9)
+        # each bound alone stays inside HS over the whole square, realizable or not
+        from polypack.mechanics._threepoint_bounds import variational_bound
+
+        pair = ((m.bulk, m.shear), (f.bulk, f.shear))
+        for z2 in np.linspace(0, 1, 3):
+            for e2 in np.linspace(0, 1, 3):
+                up = variational_bound(*pair, c, z2, e2, "shear", "upper")[0]
+                lo = variational_bound(*pair, c, z2, e2, "shear", "lower")[0]
+                assert hl.shear * (1 - 1e-9) <= lo <= hu.shear * (1 + 1e-9)
+                assert hl.shear * (1 - 1e-9) <= up <= hu.shear * (1 + 1e-9)
+
+
+def test_crossing_bounds_mean_unrealizable_parameters():
+    # both bounds hold for every microstructure, so parameters for which they cross belong to none
+    with pytest.raises(InfeasibleError, match="zeta2=0.5, eta2=0 .* cross"):
+        three_point_bounds(EPOXY, GLASS, 0.5, 0.5, 0.0)
+
+
+def test_relabelling_the_phases_changes_nothing():
+    # the phase-1 description of the same composite has zeta1 = 1 - zeta2, eta1 = 1 - eta2
+    # (the exact sums); the trial fields are the same, so the bounds must be identical. This
+    # checks the eta2 (P4) normalisation of the three-point term, which the bulk check does not see.
+    for c, z2, e2 in ((0.3, 0.1, 0.2), (0.5, 0.3, 0.5), (0.6, 0.7, 0.4)):
+        lo, up = three_point_bounds(EPOXY, GLASS, c, z2, e2)
+        lo2, up2 = three_point_bounds(GLASS, EPOXY, 1 - c, 1 - z2, 1 - e2)
+        assert lo2.shear == pytest.approx(lo.shear, rel=1e-9) and up2.shear == pytest.approx(up.shear, rel=1e-9)
+
+
+def test_exact_to_second_order_and_bounds_agree_to_third_order_in_contrast():
+    # G1 = G, G2 = G(1 + d): every admissible bound matches the exact expansion
+    # G* = <G> - phi1 phi2 (dG)^2 / (G + zeta(K, G)) + O(d^3); three-point bounds share the
+    # third-order term too, so upper - lower = O(d^4) (halving d divides it by ~16).
+    k, g, c = 2.0, 1.0, 0.3
+    err2, gap = [], []
+    for d in (0.04, 0.02, 0.01):
+        m, f = Phase(k, g), Phase(k * (1 + 0.6 * d), g * (1 + d))
+        lo, up = three_point_bounds(m, f, c, 0.25, 0.45)
+        exact2 = (1 - c) * g + c * f.shear - c * (1 - c) * (g * d) ** 2 / (g + zeta_reference(k, g))
+        err2.append(max(abs(lo.shear - exact2), abs(up.shear - exact2)))
+        gap.append(up.shear - lo.shear)
+    assert all(e < 2 * d**3 for e, d in zip(err2, (0.04, 0.02, 0.01)))
+    assert 5.0 < err2[0] / err2[1] < 11.0 and 5.0 < err2[1] / err2[2] < 11.0  # ~8: third order
+    assert 11.0 < gap[0] / gap[1] < 22.0 and 11.0 < gap[1] / gap[2] < 22.0  # ~16: fourth order
+
+
+def test_eta2_tightens_in_the_expected_direction():
+    # for stiff spheres the shear bounds rise with eta2 (more weight of the stiff phase in the
+    # three-point average), and the window is much narrower than HS at hard-sphere-like values
+    lo_a, up_a = three_point_bounds(EPOXY, GLASS, 0.5, 0.1, 0.2)
+    lo_b, up_b = three_point_bounds(EPOXY, GLASS, 0.5, 0.1, 0.4)
+    assert lo_b.shear > lo_a.shear and up_b.shear > up_a.shear
+    hl, hu = hashin_shtrikman([EPOXY, GLASS], [0.5, 0.5])
+    assert up_a.shear - lo_a.shear < 0.5 * (hu.shear - hl.shear)
