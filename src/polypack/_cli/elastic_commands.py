@@ -40,7 +40,7 @@ def register(app: typer.Typer) -> None:
             0.25e-6, help="Mean particle radius in metres the lengths are rescaled to (seed 003: 0.25 µm); "
             "0 keeps the file's length unit."),
         rotations: bool = typer.Option(True, "--rotations/--no-rotations", help="Let particles rotate."),
-        solver: str = typer.Option("auto", help="auto, direct (exact floppy-mode count) or cg."),
+        solver: str = typer.Option("auto", help="auto, direct (exact floppy-mode count), amg or cg."),
         json_out: Optional[Path] = typer.Option(None, "--json", help="Write the results as JSON here."),
         fmt: Optional[str] = typer.Option(None, "--format", help="Override the file format."),
     ):

@@ -37,7 +37,7 @@ class ElasticOptions:
     radius: float = option(0.25e-6, v.non_negative,
                            "mean radius the lengths are rescaled to, m (moduli in Pa; seed 003: 0.25 µm); "
                            "0 keeps the pack's length unit", unit="m")
-    solver: str = option("auto", v.choice("auto", "direct", "cg"), "sparse factorization or conjugate gradients")
+    solver: str = option("auto", v.choice("auto", "direct", "amg", "cg"), "sparse factorization, AMG- or block-Jacobi-preconditioned CG")
 
 
 #: Summary scalars of ``[analysis.elastic]`` (``elastic.<key>``); keep these names stable.
