@@ -235,3 +235,28 @@ def test_interrupted_commands_exit_130(command, tmp_path, monkeypatch, capsys):
     err = capsys.readouterr().err
     assert _one_interrupt_line(err) and "nothing was saved" in err
     assert not (tmp_path / "b.xyz").exists() and not (tmp_path / "r.json").exists()
+
+
+def test_cli_sigint_stops_a_command_started_with_sigint_ignored(tmp_path):
+    """A shell without job control starts ``cmd &`` with SIGINT ignored (POSIX); the CLI
+    restores the default handler, so ``kill -INT`` still stops it at a safe point (exit 130,
+    one line).  Without the restoration the pack would run to its end (exit 0)."""
+    import subprocess
+    import time
+
+    proc = subprocess.Popen([sys.executable, "-m", "polypack", "pack", "--n", "20000", "-c", "0.62", "--seed", "1",
+                             "-o", str(tmp_path / "p.gsd"), "--no-progress"], env=fi.cli_env(),
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    start = fi.startup_cpu_seconds() + 2.0
+    deadline = time.monotonic() + 300
+    while proc.poll() is None and time.monotonic() < deadline:
+        used = fi._cpu_seconds(proc.pid)
+        if used is not None and used >= start:
+            proc.send_signal(signal.SIGINT)
+            break
+        time.sleep(0.02)
+    out, err = proc.communicate(timeout=300)
+    assert proc.returncode == 130, err
+    assert _one_interrupt_line(err), err
+    assert not (tmp_path / "p.gsd").exists()

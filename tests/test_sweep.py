@@ -108,6 +108,12 @@ values = [1.0, 2.0]
     assert res.exit_code == 0, res.output
     assert (tmp_path / "o" / "void_ratio=1" / "summary.csv").exists()
     assert (tmp_path / "o" / "void_ratio=2" / "summary.csv").exists()
+    # the sweep's report.html links one report per value (each an ordinary run report)
+    page = (tmp_path / "o" / "report.html").read_text()
+    for sub in ("void_ratio=1", "void_ratio=2"):
+        assert (tmp_path / "o" / sub / "report.html").exists()
+        assert f'href="{sub}/report.html"' in page
+    assert "1 of 1" in page
     res = CliRunner().invoke(app, ["run", str(f), "--check"])
     assert res.exit_code == 0 and "2 values of protocol.void_ratio" in res.output, res.output
 

@@ -102,7 +102,8 @@ def test_doh_falls_as_the_void_number_grows():
 def test_bad_input_one_line():
     for kw, match in (({"void_ratio": 0}, "void_ratio"), ({"void_ratio": -1.0}, "void_ratio"),
                       ({"volume_fraction": 0.65}, "volume_fraction"), ({"growth_factor": 1.0}, "growth_factor"),
-                      ({"damping": 1.0}, "damping"), ({"final_relaxation": "x"}, "final_relaxation")):
+                      ({"damping": 1.0}, "damping"), ({"final_relaxation": "x"}, "final_relaxation"),
+                      ({"structure_contacts": "glue"}, "structure_contacts")):
         with pytest.raises(InvalidInputError, match=match) as info:
             pp.vem(100, **kw)
         assert "\n" not in str(info.value)
@@ -220,3 +221,50 @@ def test_deep_compression_still_ends_hard():
     pk = pp.vem(100, void_ratio=2.0, seed=3, jam_overlap=0.3, progress=False)
     assert pk.meta["vem"]["overlap_before_separation"] > 0.05
     assert _oracle_min_gap(pk) >= -1e-9
+
+
+def test_pair_keys_invert():
+    """The contact keys of the expansion (bond identity across neighbour rebuilds) decode
+    to the same (i, j, periodic image) for every image in [-8, 8]^3 (a wrong radix would
+    mix up pairs and images)."""
+    from polypack.generate.vem import _Assembly
+
+    rng = np.random.default_rng(4)
+    asm = _Assembly.__new__(_Assembly)
+    asm.n_key = np.int64(50000)
+    i = rng.integers(0, 50000, 2000)
+    j = rng.integers(0, 50000, 2000)
+    shift = rng.integers(-8, 9, (2000, 3)).astype(np.float64)
+    keys = asm._keys_of(i, j, shift)
+    bi, bj, bs = asm._pair_of(keys)
+    assert np.array_equal(bi, i) and np.array_equal(bj, j) and np.array_equal(bs, shift)
+    assert np.unique(keys).size == np.unique(np.column_stack([i, j, shift]), axis=0).shape[0]
+
+
+@pytest.fixture(scope="module")
+def sticky():
+    return pp.vem(200, volume_fraction=0.4, void_ratio=1.0, seed=3, progress=False, structure_contacts="sticky")
+
+
+def test_sticky_contacts_hold_through_the_expansion(sticky):
+    """structure_contacts = "sticky": a structure pair bonded at first touch stays bonded
+    (the bond count never falls from stage to stage, and no bond is lost at neighbour-list
+    rebuilds); the returned pack is still hard and at exactly Φ."""
+    m = sticky.meta["vem"]
+    assert m["structure_contacts"] == "sticky"
+    bonds = np.asarray(m["series"]["bonds"])
+    assert bonds[-1] > 1.0 and np.all(np.diff(bonds) >= 0.0)
+    assert m["bonds_at_jamming"] == round(bonds[-1] * 200 / 2)
+    assert _oracle_min_gap(sticky) >= -1e-9
+    assert sticky.volume_fraction == pytest.approx(0.4, rel=1e-12)
+    # the bonded pairs are all (nearly) touching at the end: every bond is one of the contacts
+    # within 1 % (a bond stretched open would mean the bonds did not hold)
+    c = pp.analysis.Contacts(tolerance=0.01)
+    c.compute(sticky)
+    assert c.coordination * 200 / 2 >= 0.95 * m["bonds_at_jamming"]
+
+
+def test_frictionless_has_no_bonds(small):
+    m = small.meta["vem"]
+    assert m["structure_contacts"] == "frictionless" and m["bonds_at_jamming"] == 0
+    assert max(m["series"]["bonds"]) == 0.0

@@ -108,7 +108,9 @@ def main(argv=None):
     are atomic: nothing half-written is ever left under a requested name).
     """
     from . import _interrupt, _util
+    from ._entry import _restore_sigint
 
+    _restore_sigint()  # SIGINT works for a command started in the background too
     _util._WRITTEN.clear()
     try:
         # The whole command runs with Ctrl-C deferred to its safe points (kernel chunks,

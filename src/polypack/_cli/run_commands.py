@@ -38,7 +38,7 @@ def register(app: typer.Typer) -> None:
         from ..ensemble.sweep import has_sweep
 
         if has_sweep(study):  # a [sweep] table: one study per value, then its report (docs/run.md)
-            _run_sweep(study, out, workers, scheduler, dask, check, force, wait, progress)
+            _run_sweep(study, out, workers, scheduler, dask, check, force, wait, progress, report)
             return
         st = load_study(study)
         if check:
@@ -78,7 +78,7 @@ def register(app: typer.Typer) -> None:
             typer.echo(f"  {'report':<20s} {path}")
 
 
-def _run_sweep(study, out, workers, scheduler, dask, check, force, wait, progress):
+def _run_sweep(study, out, workers, scheduler, dask, check, force, wait, progress, report=True):
     from ..errors import InvalidInputError
     from ..ensemble.sweep import run_sweep, sweep_studies
 
@@ -105,3 +105,18 @@ def _run_sweep(study, out, workers, scheduler, dask, check, force, wait, progres
     except KeyboardInterrupt:
         typer.echo("interrupted: finished realizations are saved; rerun the same command to resume", err=True)
         raise SystemExit(130) from None
+    if report:  # each value's run report, then OUT/report.html linking them (with the heterogeneity outputs)
+        from ..ensemble.sweep import _label
+        from ..report import report as write_report
+        from ..report.build import sweep_report
+
+        out_dir = Path(out) if out is not None else Path("out") / name
+        entries = []
+        for v, st in studies:
+            sub = out_dir / _label(sw["parameter"], v)
+            plots = bool(st.data["output"]["plots"])
+            write_report(sub, sub / "report.html", plots_dir=(sub / "figures") if plots else None,
+                         formats=(st.data["output"]["plot_format"],) if plots else ())
+            entries.append((v, sub))
+        path = sweep_report(out_dir, entries, title=name)
+        typer.echo(f"  {'report':<20s} {path}")

@@ -144,11 +144,13 @@ class VEMOptions:
     ratio_tolerance: float = option(None, v.positive, "per-stage unbalanced-force ratio (0.01)")
     jam_overlap: float = option(None, v.positive, "stop: void-contact overlap per void after relaxation (1e-3)")
     final_relaxation: str = option(None, v.choice("project", "dynamics"), "overlap removal after the voids go")
+    structure_contacts: str = option(None, v.choice("frictionless", "sticky"),
+                                     "structure contacts during the expansion: repulsive only, or bonded at first touch")
 
 
 _VEM_KEYS = ("void_ratio", "growth_factor", "initial_void_radius", "normal_stiffness", "shear_stiffness",
              "void_normal_stiffness", "void_shear_stiffness", "friction", "damping", "ratio_tolerance",
-             "jam_overlap", "final_relaxation")
+             "jam_overlap", "final_relaxation", "structure_contacts")
 
 
 def run_vem(sizes, pr: dict, seed, monitor=None):

@@ -56,6 +56,10 @@ Stop criterion
     finite pressure.  (Below jamming the relaxation unloads every contact, to below
     :data:`UNLOADED` per sphere.)  The evolution of the coordination
     number (structure-structure contacts carrying force, 2 M / N) is recorded per stage.
+Structure contacts
+    Frictionless by default; ``structure_contacts = "sticky"`` bonds a structure pair at
+    its first touch for the rest of the run (a model of coagulation; measured against
+    Table 2 of the seed in ``docs/vem.md``: it lowers both ``a`` and C, so it is not the default).
 Finish
     Voids deleted; the residual structure overlaps (about 1 % of the diameter at the
     stop) are removed by projections (:func:`polypack._kernels.vem.separate`), the
@@ -86,7 +90,7 @@ from .._util import as_seed_sequence, progress_bar, seed_record
 from ..errors import InfeasibleError, InvalidInputError, OverlapError
 from ..packing import Packing
 
-__all__ = ["vem", "OVERLAP_TOLERANCE", "MAX_VOLUME_FRACTION", "VEM_DEFAULTS"]
+__all__ = ["vem", "OVERLAP_TOLERANCE", "MAX_VOLUME_FRACTION", "VEM_DEFAULTS", "STRUCTURE_CONTACTS"]
 
 #: Largest relative overlap ``1 - d_ij / (r_i + r_j)`` tolerated between structure spheres
 #: of a returned pack (the final projections remove every overlap; this bounds round-off).
@@ -100,6 +104,11 @@ MIN_SPHERES = 32
 #: A stage's relaxation also ends when the summed relative overlap of all contacts per
 #: sphere is below this (the contacts are unloaded: the assembly is not jammed).
 UNLOADED = 1e-5
+
+#: Contact models of the structure spheres during the expansion: ``"frictionless"``
+#: (linear repulsion only, contacts open freely) or ``"sticky"`` (a structure pair that
+#: touches is bonded for good, the bond carrying tension and shear).
+STRUCTURE_CONTACTS = ("frictionless", "sticky")
 
 VEM_DEFAULTS = dict(
     growth_factor=1.02,
@@ -163,7 +172,7 @@ def _structure_radii(n, radius):
 class _Assembly:
     """Structure + void spheres in reduced units (mean structure radius 1, kn = 1, mass 1)."""
 
-    def __init__(self, pos, radii, box, n_struct, kn, ks, knv, ksv, friction, damping, skin):
+    def __init__(self, pos, radii, box, n_struct, kn, ks, knv, ksv, friction, damping, skin, sticky=False):
         from .._kernels import dem as K
 
         self.K = K
@@ -174,6 +183,9 @@ class _Assembly:
         self.ns = int(n_struct)
         self.kn, self.ks, self.knv, self.ksv = kn, ks, knv, ksv
         n = self.pos.shape[0]
+        self.n_key = np.int64(n)  # fixed for the keys (the voids are dropped at the end)
+        self.sticky = bool(sticky)
+        self.bond_keys = np.zeros(0, np.int64)  # sorted keys of the structure pairs bonded so far
         self.mass = np.ones(n)
         self.inertia = 0.4 * self.radii**2
         self.vel = np.zeros_like(self.pos)
@@ -206,7 +218,7 @@ class _Assembly:
     # contact list -------------------------------------------------------------------
     def rebuild(self):
         from .._kernels.cells import pairs_within
-        from .._kernels.contacts import CONTACT
+        from .._kernels.contacts import BONDED, CONTACT
         from ..neighbors import choose_cells
 
         pos, radii, box = self.pos, self.radii, self.box
@@ -221,6 +233,14 @@ class _Assembly:
         shift = -np.round((w[j] - w[i]) / box) - k[j] + k[i]
         old_keys = getattr(self, "_keys", None)
         keys = self._keys_of(i, j, shift)
+        if self.bond_keys.size:
+            # a bond stays in the list however far it is stretched
+            lost = np.setdiff1d(self.bond_keys, keys, assume_unique=False)
+            if lost.size:
+                bi, bj, bs = self._pair_of(lost)
+                i, j = np.concatenate([i, bi]), np.concatenate([j, bj])
+                shift = np.concatenate([shift, bs])
+                keys = np.concatenate([keys, lost])
         order = np.argsort(keys, kind="stable")
         i, j, shift, keys = i[order], j[order], shift[order], keys[order]
         m = i.shape[0]
@@ -241,6 +261,8 @@ class _Assembly:
         self.cfnb = np.full(m, np.inf)
         self.cfsb = np.full(m, np.inf)
         self.cstate = np.full(m, CONTACT, np.int64)
+        if self.bond_keys.size:
+            self.cstate[np.isin(keys, self.bond_keys, assume_unique=False)] = BONDED
         self.cfs = cfs
         self.cfn = np.zeros(m)
         self.xbuild = self.pos.copy()
@@ -248,8 +270,36 @@ class _Assembly:
 
     def _keys_of(self, i, j, shift):
         s = np.clip(shift.astype(np.int64) + 8, 0, 16)
-        n = np.int64(self.pos.shape[0])
+        n = self.n_key
         return ((i.astype(np.int64) * n + j) * 17 + s[:, 0]) * 289 + s[:, 1] * 17 + s[:, 2]
+
+    def _pair_of(self, keys):
+        """Inverse of :meth:`_keys_of`: ``(i, j, shift)`` of the given keys."""
+        keys = np.asarray(keys, np.int64)
+        s2 = keys % 17
+        s1 = (keys // 17) % 17
+        rest = keys // 289
+        s0 = rest % 17
+        ij = rest // 17
+        i, j = ij // self.n_key, ij % self.n_key
+        shift = np.stack([s0, s1, s2], axis=1).astype(np.float64) - 8.0
+        return i.astype(np.int64), j.astype(np.int64), shift
+
+    def bond_new_contacts(self):
+        """Sticky structure contacts: bond every structure pair that touches now.
+
+        The bond is a PFC contact bond about the touching distance (``rest = r_i + r_j``),
+        unbreakable, carrying tension and shear; it holds through the rest of the expansion.
+        Returns the number of new bonds.
+        """
+        from .._kernels.contacts import BONDED, CONTACT
+
+        new = ((self.cstate == CONTACT) & (self.ci < self.ns) & (self.cj < self.ns) & (self.cfn > 0.0))
+        if not np.any(new):
+            return 0
+        self.cstate[new] = BONDED
+        self.bond_keys = np.union1d(self.bond_keys, self._keys[new])
+        return int(np.count_nonzero(new))
 
     # dynamics ---------------------------------------------------------------------
     def _run(self, steps, sample):
@@ -286,6 +336,8 @@ class _Assembly:
                 self._run(k - 1, False)
             self._run(1, True)
             steps += k
+            if self.sticky:
+                self.bond_new_contacts()
             st = self.stats()
             active = st[V.C_STRUCT_CONTACTS] + st[V.C_VOID_CONTACTS]
             fu = self.samples[0, K.S_UNBALANCED] * n
@@ -317,8 +369,7 @@ class _Assembly:
         self.vel = np.zeros_like(self.pos)
         self.omg = np.zeros_like(self.pos)
         self.kind = self.kind[: self.ns]
-        self._keys = None
-        self.rebuild()
+        self.rebuild()  # structure keys do not change (fixed n_key): shear histories and bonds carry over
 
 
 def _initial_structure(radii, box, seed):
@@ -376,6 +427,7 @@ def vem(
     stage_steps=VEM_DEFAULTS["stage_steps"],
     max_stages=VEM_DEFAULTS["max_stages"],
     final_relaxation="project",
+    structure_contacts="frictionless",
     progress=None,
 ) -> Packing:
     """Heterogeneous pack by the void expansion method (VEM).
@@ -427,6 +479,13 @@ def vem(
         only (smallest moves; every compressed contact ends exactly touching);
         ``"dynamics"`` first relaxes the structure by the seed's zero-velocity steps
         (contacts unload and some open), then projects.
+    structure_contacts : {"frictionless", "sticky"}
+        Structure-structure contacts during the expansion: ``"frictionless"`` (default;
+        the linear repulsive contact of the seed's DEM, contacts open freely) or
+        ``"sticky"``: a structure pair that touches is bonded for good (a PFC contact bond
+        about the touching distance, unbreakable, carrying tension and shear), a model of
+        coagulating particles.  ``docs/vem.md`` compares both with Table 2 of the seed
+        (sticky contacts lower both ``a`` and C).
     progress : bool, optional
         Progress bar (void diameter, coordination, unbalanced-force ratio); default when
         stderr is a terminal.
@@ -485,6 +544,9 @@ def vem(
     max_stages = _integer("max_stages", max_stages, 1)
     if final_relaxation not in ("project", "dynamics"):
         raise InvalidInputError(f"final_relaxation={final_relaxation!r}: allowed are 'project' and 'dynamics'")
+    if structure_contacts not in STRUCTURE_CONTACTS:
+        raise InvalidInputError(f"structure_contacts={structure_contacts!r}: allowed are "
+                                + ", ".join(repr(x) for x in STRUCTURE_CONTACTS))
 
     ss = as_seed_sequence(seed)
     s_fluid, s_void = ss.spawn(2)
@@ -503,10 +565,11 @@ def vem(
     pos_v = _initial_voids(n_void, pos_s, red, box, rv0, rng)
     pos = np.concatenate([pos_s, pos_v])
     allr = np.concatenate([red, np.full(n_void, rv0)])
-    asm = _Assembly(pos, allr, box, ns, 1.0, ks / kn, knv / kn, ksv / kn, mu, alpha, skin)
+    asm = _Assembly(pos, allr, box, ns, 1.0, ks / kn, knv / kn, ksv / kn, mu, alpha, skin,
+                    sticky=structure_contacts == "sticky")
     vol = float(np.prod(box))
     vs = float(np.sum(4.0 / 3.0 * np.pi * red**3))
-    series = {k: [] for k in ("stage", "void_diameter", "total_fraction", "coordination", "void_contacts",
+    series = {k: [] for k in ("stage", "void_diameter", "total_fraction", "coordination", "bonds", "void_contacts",
                               "void_overlap", "structure_overlap", "ratio", "steps")}
     reason = None
     bar = progress_bar(total=None, desc=f"vem N_V/N={vr:g}", progress=progress, unit="stage")
@@ -532,7 +595,7 @@ def vem(
                 sov = st[V.C_STRUCT_OVERLAP_SUM] / st[V.C_STRUCT_CONTACTS] if st[V.C_STRUCT_CONTACTS] else 0.0
                 total = (vs + n_void * 4.0 / 3.0 * np.pi * rv**3) / vol
                 for key, val in (("stage", stage), ("void_diameter", 2.0 * rv * r0), ("total_fraction", total),
-                                 ("coordination", c), ("void_contacts", 2.0 * st[V.C_VOID_CONTACTS] / (ns + n_void)),
+                                 ("coordination", c), ("bonds", 2.0 * asm.bond_keys.size / ns), ("void_contacts", 2.0 * st[V.C_VOID_CONTACTS] / (ns + n_void)),
                                  ("void_overlap", vov), ("structure_overlap", sov), ("ratio", ratio),
                                  ("steps", steps)):
                     series[key].append(float(val) if key != "stage" and key != "steps" else int(val))
@@ -547,6 +610,7 @@ def vem(
             _interrupt.check(f"vem interrupted after stage {stage}")
             void_d = 2.0 * float(asm.radii[ns]) * r0
             c_jam = series["coordination"][-1]
+            n_bonds_jam = asm.bond_keys.size
             asm.drop_voids()
             fsteps, fratio = 0, float("nan")
             if final_relaxation == "dynamics":
@@ -601,6 +665,8 @@ def vem(
             "stage_steps": stage_steps,
             "max_stages": max_stages,
             "final_relaxation": final_relaxation,
+            "structure_contacts": structure_contacts,
+            "bonds_at_jamming": int(n_bonds_jam),
             "mass_scaling": "one common mass for all spheres; time step 0.2 sqrt(m / k_max)",
             "stop_reason": reason,
             "stages": len(series["stage"]),

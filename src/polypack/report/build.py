@@ -22,7 +22,7 @@ import numpy as np
 from ..errors import FormatError, InvalidInputError, PolypackError
 from .viewer import check_field, pack_payload, page, viewer_block
 
-__all__ = ["report", "pack_report_html", "run_report_html", "RunFolder", "read_run"]
+__all__ = ["report", "pack_report_html", "run_report_html", "sweep_report", "RunFolder", "read_run"]
 
 _CSS = """
 body { margin: 0; font: 14px/1.5 system-ui, -apple-system, "Segoe UI", sans-serif; color: #222; background: #fff; }
@@ -576,4 +576,83 @@ def report(source, out=None, *, color=None, theory=False, compare=(), plots_dir=
         raise InvalidInputError(f"{src}: no such file or folder (give a pack file or a polypack run folder)")
     with atomic_open(target, "w", encoding="utf-8") as fh:
         fh.write(text)
+    return target
+
+
+# ================================================================== [sweep] runs
+def sweep_report(out, entries, *, title=None):
+    """Write ``OUT/report.html`` of a ``[sweep]`` run: one page linking the value runs' reports.
+
+    Parameters
+    ----------
+    out : path
+        The sweep's output folder.
+    entries : sequence of ``(value, folder)``
+        The swept values and their run folders (each an ordinary ``polypack run``
+        folder, with its own ``report.html`` when written).
+    title : str, optional
+        Page title (default: the folder name).
+
+    The page holds a table of the values (realizations finished, mean coordination, DOH
+    ``a``, link to each value's report) and, when the sweep wrote the heterogeneity
+    report (``OUT/heterogeneity/``), its Table 2, the fit of Eq. (7) of
+    003_873b69fc71c74cf6.txt and the figures (Figs. 2 and 6 of the seed) inline.
+    Returns the path written (atomically).
+    """
+    import base64
+
+    from .._util import atomic_open
+
+    out = Path(out)
+    rows = []
+    for value, folder in entries:
+        folder = Path(folder)
+        try:
+            run = read_run(folder)
+            n_done, n_all = len(run.records), run.p
+            vals = [r.get("analysis", {}) for r in run.records]
+            cs = [v.get("contacts", {}).get("coordination") for v in vals]
+            ps = [v.get("pores", {}).get("fit", {}).get("seed", {}).get("a") for v in vals]
+            cs = [float(c) for c in cs if c is not None]
+            ps = [float(a) for a in ps if a is not None]
+            c = float(np.mean(cs)) if cs else float("nan")
+            a = float(np.mean(ps)) if ps else float("nan")
+            status = f"{n_done} of {n_all}"
+        except PolypackError as exc:
+            c = a = float("nan")
+            status = f"not readable ({exc})"
+        rel = folder.relative_to(out) if folder.is_relative_to(out) else folder
+        link = (("html", f'<a href="{_esc((rel / "report.html").as_posix())}">{_esc(rel.as_posix())}</a>')
+                if (folder / "report.html").exists() else str(rel))
+        rows.append((str(value), status, c, a, link))
+    parts = [f"<header><h1>{_esc(title or out.name)}</h1><p>polypack [sweep] run: one study per value; "
+             "each value's run has its own report.</p></header><main>",
+             "<h2>Values</h2>",
+             _table(("value", "realizations finished", "mean coordination z", "DOH a (Eq. 6)", "report"), rows)]
+    het = out / "heterogeneity"
+    if (het / "fit.json").exists():
+        fit = json.loads((het / "fit.json").read_text())
+        parts.append("<h2>Stiffness against the degree of heterogeneity (seed 003)</h2>")
+        cols = [k for k in ("set", "void_ratio", "realizations", "a", "a_se", "b", "C", "C_se", "G_MPa", "G_sd_MPa")
+                if any(k in r for r in fit.get("rows", []))]
+        parts.append(_table(cols, [tuple(r.get(k) for k in cols) for r in fit.get("rows", [])]))
+        f = fit.get("fit")
+        if f:
+            parts.append(f"<p>Eq. (7) of 003_873b69fc71c74cf6.txt: a0 = {_num(f.get('a0'))} ± {_num(f.get('a0_err'))}, "
+                         f"β = {_num(f.get('beta'))} ± {_num(f.get('beta_err'))}, prefactor "
+                         f"{_num(f.get('prefactor'))} ± {_num(f.get('prefactor_err'))} MPa. "
+                         "Seed: a0 = 0.373 ± 0.001, β = 0.187 ± 0.032.</p>")
+        parts.append(f"<p>{_esc(fit.get('note', ''))}</p>")
+        for name, cap in (("fig2.png", "DOH a against the coordination number C (seed Fig. 2)"),
+                          ("fig6.png", "Plateau shear modulus G′p (MPa) against the DOH a with the fit of Eq. (7) "
+                                       "(seed Fig. 6)")):
+            p = het / name
+            if p.exists():
+                b64 = base64.b64encode(p.read_bytes()).decode("ascii")
+                parts.append(_figure(f'<img alt="{_esc(name)}" src="data:image/png;base64,{b64}">', _esc(cap)))
+    parts.append("</main>")
+    target = out / "report.html"
+    with atomic_open(target, "w", encoding="utf-8") as fh:
+        fh.write(page(f"polypack sweep: {title or out.name}", '<div class="pp-page">' + "".join(parts) + "</div>",
+                      extra_css=_CSS))
     return target
