@@ -644,8 +644,8 @@ def sweep_report(out, entries, *, title=None):
                          "Seed: a0 = 0.373 ± 0.001, β = 0.187 ± 0.032.</p>")
         parts.append(f"<p>{_esc(fit.get('note', ''))}</p>")
         for name, cap in (("fig2.png", "DOH a against the coordination number C (seed Fig. 2)"),
-                          ("fig6.png", "Plateau shear modulus G′p (MPa) against the DOH a with the fit of Eq. (7) "
-                                       "(seed Fig. 6)")):
+                          ("fig6.png", "Plateau shear modulus G′p (MPa) against the DOH a with the power-law fit "
+                                       "of Eq. (7) of 003_873b69fc71c74cf6.txt (seed Fig. 6)")):
             p = het / name
             if p.exists():
                 b64 = base64.b64encode(p.read_bytes()).decode("ascii")
