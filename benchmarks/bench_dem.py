@@ -445,39 +445,36 @@ def main(argv=None):
     out = {"machine": "shared 2-core machine (other jobs running); compare ratios"}
 
     # ---- speed
-    net = make_network(args.n)
-    dt = 0.5 * dem.critical_time_step(net, density)
+    if args.convergence or not args.no_speed:
+        net = make_network(args.n)
+        dt = 0.5 * dem.critical_time_step(net, density)
     if args.convergence:
         out["convergence"] = convergence(net, amplitude, damping, density)
     if args.plates_bias:
         print("plates vs Lees-Edwards, direction (2, 0), 2000 steps/cycle, 3 cycles:")
         out["plates_bias"] = plates_bias()
-    if args.no_speed:
-        if args.json:
-            with open(args.json, "w") as f:
-                json.dump(out, f, indent=2)
-        return out
-    out.update(n=args.n, bonds=int(net.n_bonds), bonds_per_particle=net.n_bonds / args.n, steps=args.steps, dt=dt)
-    t_pp, c_pp = polypack_speed(net, args.steps, density, dt, amplitude, damping)
-    t_lmp, c_lmp = lammps_speed(net, density, dt, args.steps, amplitude, damping, kn, ks)
-    ps = args.n * args.steps
-    rate_pp, rate_lmp = ps / t_pp, ps / t_lmp
-    crate_pp, crate_lmp = ps / c_pp, ps / c_lmp
-    out.update(polypack_seconds=t_pp, lammps_seconds=t_lmp, polypack_cpu_seconds=c_pp, lammps_cpu_seconds=c_lmp,
-               polypack_particle_steps_per_s=rate_pp, lammps_particle_steps_per_s=rate_lmp,
-               polypack_particle_steps_per_cpu_s=crate_pp, lammps_particle_steps_per_cpu_s=crate_lmp,
-               ratio=rate_pp / rate_lmp, ratio_cpu=crate_pp / crate_lmp)
-    print(f"N = {args.n}, {net.n_bonds} bonds ({net.n_bonds / args.n:.2f} per sphere), {args.steps} steps "
-          f"(wall and CPU time of this process; the machine is shared)")
-    print(f"  polypack  {t_pp:8.2f} s wall {c_pp:8.2f} s CPU   {rate_pp:10.3g} /s wall  {crate_pp:10.3g} /s CPU")
-    print(f"  LAMMPS    {t_lmp:8.2f} s wall {c_lmp:8.2f} s CPU   {rate_lmp:10.3g} /s wall  {crate_lmp:10.3g} /s CPU")
-    print(f"  ratio polypack/LAMMPS = {rate_pp / rate_lmp:.2f} (wall), {crate_pp / crate_lmp:.2f} (CPU)")
-    rate_pp = crate_pp  # the protocol estimate uses the CPU rate (one idle core)
-    # seed protocol estimate: N = 8000, 10 cycles, 6 directions
-    for spc in (2000, 4000, 8000):
-        est = 8000 * 10 * 6 * spc / rate_pp
-        out[f"seed_protocol_seconds_at_{spc}_steps_per_cycle"] = est
-        print(f"  seed protocol (N=8000, 10 cycles, 6 directions, {spc} steps/cycle): {est / 60:.1f} min of one core")
+    if not args.no_speed:
+        out.update(n=args.n, bonds=int(net.n_bonds), bonds_per_particle=net.n_bonds / args.n, steps=args.steps, dt=dt)
+        t_pp, c_pp = polypack_speed(net, args.steps, density, dt, amplitude, damping)
+        t_lmp, c_lmp = lammps_speed(net, density, dt, args.steps, amplitude, damping, kn, ks)
+        ps = args.n * args.steps
+        rate_pp, rate_lmp = ps / t_pp, ps / t_lmp
+        crate_pp, crate_lmp = ps / c_pp, ps / c_lmp
+        out.update(polypack_seconds=t_pp, lammps_seconds=t_lmp, polypack_cpu_seconds=c_pp, lammps_cpu_seconds=c_lmp,
+                   polypack_particle_steps_per_s=rate_pp, lammps_particle_steps_per_s=rate_lmp,
+                   polypack_particle_steps_per_cpu_s=crate_pp, lammps_particle_steps_per_cpu_s=crate_lmp,
+                   ratio=rate_pp / rate_lmp, ratio_cpu=crate_pp / crate_lmp)
+        print(f"N = {args.n}, {net.n_bonds} bonds ({net.n_bonds / args.n:.2f} per sphere), {args.steps} steps "
+              f"(wall and CPU time of this process; the machine is shared)")
+        print(f"  polypack  {t_pp:8.2f} s wall {c_pp:8.2f} s CPU   {rate_pp:10.3g} /s wall  {crate_pp:10.3g} /s CPU")
+        print(f"  LAMMPS    {t_lmp:8.2f} s wall {c_lmp:8.2f} s CPU   {rate_lmp:10.3g} /s wall  {crate_lmp:10.3g} /s CPU")
+        print(f"  ratio polypack/LAMMPS = {rate_pp / rate_lmp:.2f} (wall), {crate_pp / crate_lmp:.2f} (CPU)")
+        rate_pp = crate_pp  # the protocol estimate uses the CPU rate (one idle core)
+        # seed protocol estimate: N = 8000, 10 cycles, 6 directions
+        for spc in (2000, 4000, 8000):
+            est = 8000 * 10 * 6 * spc / rate_pp
+            out[f"seed_protocol_seconds_at_{spc}_steps_per_cycle"] = est
+            print(f"  seed protocol (N=8000, 10 cycles, 6 directions, {spc} steps/cycle): {est / 60:.1f} min of one core")
 
     # ---- agreement
     if not args.no_agreement:
