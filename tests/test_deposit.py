@@ -360,3 +360,56 @@ def test_kernel_warmup_places_a_floor_row():
     pos, rad, sup, _ = deposit_arrays(np.full(4, 0.5), 4.0, False)
     assert np.allclose(pos, [[0.5, 0.5], [1.5, 0.5], [2.5, 0.5], [3.5, 0.5]])
     assert sup[0].tolist() == [FLOOR, LEFT_WALL] and sup[1].tolist() == [FLOOR, 0]
+
+
+@pytest.mark.parametrize("periodic", [False, True])
+def test_centred_floor_rule_against_a_grid_oracle(periodic):
+    """floor_rule="centred": a disk that can reach the bare floor goes to the midpoint of the
+    leftmost bare stretch of centres (found here on a grid of 4e4 abscissae of the brute-force
+    drop height, independent of the kernel); any other disk to the lowest pocket of the
+    brute-force oracle.  Tolerances: two grid steps for the midpoint, round-off for pockets."""
+    rng = np.random.default_rng(21 + periodic)
+    radii = rng.uniform(0.15, 0.5, 80)
+    W = 6.0
+    pos, rad, sup, _ = deposit_arrays(radii, W, periodic, floor_rule="centred")
+    n_floor = 0
+    for k in range(len(rad)):
+        r, P, R = rad[k], pos[:k], rad[:k]
+        x = np.linspace(0.0, W, 40000, endpoint=False) if periodic else np.linspace(r, W - r, 40000)
+        h = x[1] - x[0]
+        free = _envelope(P, R, r, x, W, periodic) <= r * (1 + 1e-12)
+        if free.any():
+            n_floor += 1
+            assert pos[k, 1] == pytest.approx(r, rel=1e-12)
+            idx = np.flatnonzero(free)
+            if periodic and free.all():
+                continue  # bare periodic floor: any abscissa (the kernel takes 0)
+            # leftmost stretch: the run of free grid points with the smallest start
+            runs = np.split(idx, np.flatnonzero(np.diff(idx) > 1) + 1)
+            if periodic and free[0] and free[-1] and len(runs) > 1:
+                runs[0] = np.r_[runs[-1] - len(x), runs[0]]  # a stretch across x = 0
+                runs = runs[:-1]
+            starts = [x[q[0] % len(x)] if not periodic else (x[0] + q[0] * h) % W for q in runs]
+            first = runs[int(np.argmin(starts))]
+            mid = x[0] + 0.5 * (first[0] + first[-1]) * h
+            d = pos[k, 0] - mid
+            if periodic:
+                d -= W * np.round(d / W)
+            assert abs(d) < 2 * h, (k, pos[k, 0], mid)
+        elif k > 0:
+            y, xo = _oracle_position(P, R, r, W, periodic)
+            d = xo - pos[k, 0]
+            if periodic:
+                d -= W * np.round(d / W)
+            assert abs(y - pos[k, 1]) < 1e-9 and abs(d) < 1e-9, k
+    assert n_floor >= 5  # the floor rule was exercised
+
+
+def test_centred_floor_rule_bisects_a_bare_floor():
+    """Equal disks (d = 1) between walls 10 apart: the first disk at x = 5 (centre of [0.5, 9.5]),
+    the second at the midpoint of the stretch left of it, [0.5, 4], the third of [0.5, 1.25]."""
+    pk = pp.deposit(np.full(6, 0.5), width=10.0, boundary="walls", order="given", floor_rule="centred")
+    assert pk.positions[:3, 0] == pytest.approx([5.0, 2.25, 0.875], abs=1e-12)
+    assert np.all(pk.positions[:3, 1] == 0.5)
+    with pytest.raises(InvalidInputError, match="floor_rule"):
+        pp.deposit(np.full(6, 0.5), width=10.0, floor_rule="middle")

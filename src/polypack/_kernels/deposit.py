@@ -82,7 +82,12 @@ class DepositParam(IntEnum):
     PERIODIC = 1  # 1.0: x periodic, 0.0: walls at x = 0 and x = W
     TOL = 2  # relative tolerance of contact tests and of the tie rule
     RMAX = 3  # largest radius of all disks (bed included)
-    N_PARAMS = 4
+    FLOOR_RULE = 4  # 0.0: leftmost point of the leftmost bare floor stretch; 1.0: its midpoint
+    N_PARAMS = 5
+
+
+FLOOR_LEFT = 0
+FLOOR_CENTRED = 1
 
 
 class DepositState(IntEnum):
@@ -393,7 +398,97 @@ def _wedge_candidate(i, j, r, pos, rad, width, periodic, side):
 
 
 @njit(cache=True)
-def _place_one(n, r, pos, rad, cid, clo, chi, ns, width, periodic, rmax, tol, res):
+def _floor_centred(r, pos, rad, cid, ns, width, periodic, tol, res):
+    """Midpoint of the leftmost bare-floor stretch of centres (``FLOOR_CENTRED`` rule).
+
+    At the floor level ``y = r`` chain disk ``j`` blocks the centres with
+    ``|x - x_j| < w_j``: ``w_j = sqrt(R^2 - (r - y_j)^2)`` when its centre is not higher than
+    ``r`` (it would overlap), else ``w_j = R = r + r_j`` (a vertical drop cannot pass under
+    its dilated arc).  The free centres form closed stretches ``[a, b]``; the leftmost one
+    (smallest ``a``, in ``[0, W)`` when periodic) is chosen and the disk goes to its
+    midpoint, touching only the floor (or, for a stretch of zero length, its ends).
+    Returns ``(found, touch_left, touch_right)`` and writes ``res = (x, r)``.
+    """
+    lo = np.empty(ns)
+    ln = np.empty(ns)
+    m = 0
+    last = -1
+    for e in range(ns):
+        j = cid[e]
+        if j < 0 or j == last:
+            continue
+        last = j
+        R = r + rad[j]
+        dyf = pos[j, 1] - r
+        if dyf <= 0.0:
+            w2 = R * R - dyf * dyf
+            if w2 <= 0.0:
+                continue
+            w = math.sqrt(w2)
+        else:
+            w = R
+        a = pos[j, 0] - w
+        if periodic:
+            a = _wrap(a, width, periodic)
+        lo[m] = a
+        ln[m] = 2.0 * w
+        m += 1
+    slack = tol * r
+    if m == 0:
+        res[0] = 0.0 if periodic else 0.5 * width
+        res[1] = r
+        if not periodic and width < 2.0 * r * (1.0 - tol):
+            return False, NO_SUPPORT, NO_SUPPORT
+        return True, NO_SUPPORT, NO_SUPPORT
+    order = np.argsort(lo[:m])
+    best_a = np.inf
+    best_len = 0.0
+    if periodic:
+        # sweep two turns of the circle; a gap is counted once, where it ends at a blocked
+        # stretch of the second turn (so the stretches of the first turn that run past W
+        # are accounted for)
+        end = -np.inf
+        for q in range(2 * m):
+            k = order[q % m]
+            a = lo[k] + (width if q >= m else 0.0)
+            b = a + ln[k]
+            if q >= m and a >= end - slack:
+                ga = _wrap(end, width, periodic)
+                if ga < best_a:
+                    best_a = ga
+                    best_len = max(a - end, 0.0)
+            if b > end:
+                end = b
+    else:
+        end = r  # the left wall
+        hi = width - r  # the right wall
+        for q in range(m + 1):
+            if q < m:
+                a = lo[order[q]]
+                b = a + ln[order[q]]
+            else:
+                a = hi
+                b = hi
+            if end > hi + slack:
+                break
+            if a >= end - slack:
+                best_a = end
+                best_len = max(min(a, hi) - end, 0.0)
+                break
+            if b > end:
+                end = b
+    if not best_a < np.inf:
+        return False, NO_SUPPORT, NO_SUPPORT
+    x = best_a + 0.5 * best_len
+    if periodic:
+        x = _wrap(x, width, periodic)
+    res[0] = x
+    res[1] = r
+    return True, NO_SUPPORT, NO_SUPPORT
+
+
+@njit(cache=True)
+def _place_one(n, r, pos, rad, cid, clo, chi, ns, width, periodic, rmax, tol, res, floor_rule):
     """Find the position of disk ``n`` (radius ``r``); writes ``res = (x, y)``, returns supports.
 
     Returns ``(found, s0, s1)``.
@@ -410,6 +505,10 @@ def _place_one(n, r, pos, rad, cid, clo, chi, ns, width, periodic, rmax, tol, re
     best_x = np.inf
     s0 = -1
     s1 = -1
+    if has_floor and floor_rule == FLOOR_CENTRED:
+        found, t0, t1 = _floor_centred(r, pos, rad, cid, ns, width, periodic, tol, res)
+        if found and _on_envelope(res[0], r, r, -1, -1, pos, rad, cid, clo, chi, ns, width, periodic, reach, tol):
+            return True, FLOOR, t1
     if has_floor:
         if periodic:
             if _on_envelope(0.0, r, r, -1, -1, pos, rad, cid, clo, chi, ns, width, periodic, reach, tol):
@@ -637,6 +736,7 @@ def deposit_disks(rad, n_fixed, k_stop, pos, support, params, cid, clo, chi, sta
     periodic = params[DepositParam.PERIODIC] != 0.0
     tol = params[DepositParam.TOL]
     rmax = params[DepositParam.RMAX]
+    floor_rule = int(params[DepositParam.FLOOR_RULE])
     eps = 1e-14 * width
     if state[DepositState.N_PLACED] == 0:
         cid[0] = -1
@@ -661,7 +761,7 @@ def deposit_disks(rad, n_fixed, k_stop, pos, support, params, cid, clo, chi, sta
     res = np.zeros(2)
     for k in range(state[DepositState.N_PLACED], k_stop):
         r = rad[k]
-        found, s0, s1 = _place_one(k, r, pos, rad, cid, clo, chi, ns, width, periodic, rmax, tol, res)
+        found, s0, s1 = _place_one(k, r, pos, rad, cid, clo, chi, ns, width, periodic, rmax, tol, res, floor_rule)
         if not found:
             state[DepositState.N_PLACED] = k
             state[DepositState.CHAIN_LEN] = ns

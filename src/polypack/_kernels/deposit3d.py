@@ -29,18 +29,25 @@ from the corner ``(x, y) = (0, 0)`` (walls: ``(r, r)``) along ``x`` first.
 
 Surface structure
 -----------------
-Only *alive* spheres are searched: a sphere ``k`` is dead once every column within
-``r_k + r_max`` of its centre is covered by material above its top, ``z_k + r_k``.  A new
-sphere touching ``k`` would have its centre within ``r + r_k`` horizontally and its bottom
-below ``z_k + r_k``, i.e. below material on its own column: it would overlap or be blocked.
-So a dead sphere can never be touched again, and the topmost sphere of any column is never
-dead, which makes the envelope test over alive spheres exact.  The covered heights are kept
-as a lower bound per square cell of a fine column grid (``z_k + sqrt(r_k^2 - h_far^2)`` of
-every sphere whose disk contains the whole cell).  The alive spheres sit in a coarse grid of
-columns; the best candidate of each alive sphere (over the candidates it owns: it is the
-lowest-indexed sphere among the supports) is cached and recomputed only when the radius
-changes or a sphere lands nearby.  The work per sphere is proportional to the number of alive
-spheres (the surface, ~ ``Lx Ly / d^2``), not to the number already placed.
+Only *alive* spheres are searched.  A fine column grid keeps ``cov``, a lower bound on the
+drop envelope ``U_rmin`` of the smallest sphere on every column of each cell (the highest
+single dilated cap ``z_k + sqrt((r_k + rmin)^2 - f^2)`` at the cell's farthest column).
+Every dilated cap grows at least as fast as its radius, so ``U_r >= U_rmin + (r - rmin)``
+for every ``r >= rmin``.  A sphere ``k`` is dead once the smallest ``cov`` over the columns
+within ``r_k + r_max`` exceeds ``z_k + r_k + rmin``: a new sphere of radius ``r`` touching
+``k`` would have its centre on one of those columns at a height of at most
+``z_k + r_k + r``, below the envelope there.  A dead sphere is never touched again and is
+never the highest cap of a column (the same inequality), which makes the envelope test
+over alive spheres exact.  The alive spheres sit in a coarse grid of columns; each alive
+sphere owns the candidates of which it is the highest sphere support (largest ``z``, then
+largest index), which therefore lie at or above its centre.  Per new sphere the alive
+spheres are searched in the order of a lower bound on their owned candidates (``cov``
+plus ``r - rmin``; ``z_s`` where no bare floor is near; a cached result for the same
+radius) and the search stops once the bound exceeds the best height found; each search
+only looks at candidates below that best height (the best one owned, or the knowledge
+that there is none below it, is cached until a sphere lands nearby).  The work per sphere
+is proportional to the number of alive spheres (the surface, ~ ``Lx Ly / d^2``), not to
+the number already placed.
 
 Support codes (``support`` array, three per sphere): ``>= 0`` a sphere index, ``FLOOR``,
 ``WALL_X0``, ``WALL_X1``, ``WALL_Y0``, ``WALL_Y1``, ``NO_SUPPORT`` (a periodic seam used by the tie
@@ -93,7 +100,8 @@ class Deposit3DState(IntEnum):
     ALIVE_MAX = 2  # most alive spheres seen
     N_OVERHANG = 3  # spheres placed by the overhang fallback
     N_RECOMPUTED = 4  # per-sphere candidate searches done
-    N_STATE = 5
+    N_IMPROVED = 5  # searches that found a candidate below the best one so far
+    N_STATE = 6
 
 
 @njit(cache=True)
@@ -300,9 +308,19 @@ def _report(code):
 
 @njit(cache=True)
 def _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, nxt, hcell, ncx, ncy, rmax,
-                   best, bsup, nb, nrm):
-    """Best candidate owned by alive sphere ``s`` (it has the smallest index among the sphere supports)."""
-    best[0] = np.inf
+                   best, bsup, nb, nrm, thr, floor_ok):
+    """Best candidate owned by alive sphere ``s`` (the highest of its sphere supports), if below ``thr``.
+
+    Only candidates lower than ``thr + tol * r`` are examined (``thr = inf``: all); if none
+    is found ``best[1]`` stays ``inf``.  A sphere owns a candidate when it is the highest of
+    its sphere supports (largest ``z``, then largest index), so every owned candidate lies
+    at or above ``z_s`` (it is on the envelope, hence not below a support's centre).
+    ``floor_ok = False`` skips the floor candidates (the caller knows the floor is covered
+    near ``s``).  The periodic seams only enter with the floor: elsewhere a seam point
+    lies on a ridge of the envelope (the intersection of two concave caps), never below
+    the vertex at the ridge's end, so it cannot be a minimum or a tie.
+    """
+    best[0] = thr + 2.0 * tol * r if thr < np.inf else np.inf
     best[1] = np.inf
     best[2] = np.inf
     bsup[0] = NO_SUPPORT
@@ -313,7 +331,7 @@ def _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, n
     rel = np.empty(3)
     off = np.empty(3)
     Rs = r + rad[s]
-    # neighbours j > s that can touch the same new sphere (relative vectors to s)
+    # lower neighbours (z, then index, below s's) that can touch the same new sphere (relative vectors to s)
     reach = rad[s] + rmax + 2.0 * r
     rx = int(math.ceil(reach / hcell[0]))
     ry = int(math.ceil(reach / hcell[1]))
@@ -337,7 +355,7 @@ def _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, n
             ay = qy % ncy
             k = head[ax * ncy + ay]
             while k >= 0:
-                if k > s:
+                if pos[k, 2] < pos[s, 2] or (pos[k, 2] == pos[s, 2] and k < s):
                     d0 = _mi(pos[k, 0] - pos[s, 0], L[0], per[0])
                     d1 = _mi(pos[k, 1] - pos[s, 1], L[1], per[1])
                     d2 = pos[k, 2] - pos[s, 2]
@@ -397,6 +415,8 @@ def _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, n
     # --- two spheres and a plane: s, j, plane
     for q in range(nplanes):
         code = planes[q]
+        if code <= _SEAM_X or (code == FLOOR and not floor_ok):
+            continue
         axis, val = _plane_value(code, r, L)
         o1 = (axis + 1) % 3
         o2 = (axis + 2) % 3
@@ -455,6 +475,11 @@ def _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, n
     # --- one sphere and two planes: s, plane, plane
     for q1 in range(nplanes):
         for q2 in range(q1 + 1, nplanes):
+            has_floor = planes[q1] == FLOOR or planes[q2] == FLOOR
+            if has_floor and not floor_ok:
+                continue
+            if (planes[q1] <= _SEAM_X or planes[q2] <= _SEAM_X) and not has_floor:
+                continue
             a1, v1 = _plane_value(planes[q1], r, L)
             a2, v2 = _plane_value(planes[q2], r, L)
             if a1 == a2:
@@ -544,12 +569,14 @@ def _unlink(i, head, nxt, prv, cell):
 
 @njit(cache=True)
 def _cover(p, r, cov, hc, mx, my, L, per, rmin):
-    """Raise the blocked-height lower bound of the fine cells near a new sphere.
+    """Raise the envelope lower bound of the fine cells near a new sphere.
 
-    ``cov[c]`` is a height ``H`` such that above every column of cell ``c`` some material
-    higher than ``H`` lies within ``rmin`` horizontally: a sphere (radius ``>= rmin``) whose
-    centre is on that column cannot come below ``H``.  A sphere at horizontal distance at most
-    ``f`` from every column of the cell gives ``H = z + sqrt(r^2 - max(f - rmin, 0)^2)``.
+    ``cov[c]`` is a lower bound on ``U_rmin`` (the drop envelope of the smallest sphere) on
+    every column of cell ``c``.  A sphere at horizontal distance at most ``f`` from every
+    column of the cell gives ``U_rmin >= z + sqrt((r + rmin)^2 - f^2)`` when
+    ``f < r + rmin``.  For any radius ``r' >= rmin``, ``U_r' >= U_rmin + (r' - rmin)``
+    (each dilated cap ``sqrt(R^2 - h^2)`` grows at least as fast as ``R``), which makes the
+    bound usable for every sphere.
     """
     rm = rmin * (1.0 - 1e-9)
     R = r + rm
@@ -569,22 +596,21 @@ def _cover(p, r, cov, hc, mx, my, L, per, rmin):
                 continue
             ay = qy % my
             dy = abs(_mi((ay + 0.5) * hc[1] - p[1], L[1], per[1])) + 0.5 * hc[1]
-            f = math.sqrt(dx * dx + dy * dy)
-            if f < R:
-                e = max(f - rm, 0.0)
-                v = p[2] + math.sqrt(max(r * r - e * e, 0.0))
+            f2 = dx * dx + dy * dy
+            if f2 < R * R:
+                v = p[2] + math.sqrt(R * R - f2) * (1.0 - 1e-12)
                 if v > cov[ax * my + ay]:
                     cov[ax * my + ay] = v
 
 
 @njit(cache=True)
 def _min_cover(k, pos, rad, cov, hc, mx, my, L, per, rmax):
-    """Smallest blocked height ``cov`` over the columns within ``r_k + r_max`` of sphere ``k``.
+    """Smallest envelope bound ``cov`` over the columns within ``r_k + r_max`` of sphere ``k``.
 
-    A new sphere touching ``k`` has its centre on one of these columns, so its height is at
-    least this value (a lower bound on every candidate ``k`` owns), and if the value exceeds
-    ``z_k + r_k + r_max`` (the highest centre touching ``k``) ``k`` can never be touched
-    again: it is dead.
+    A new sphere of radius ``r`` touching ``k`` has its centre on one of these columns, so
+    its height is at least this value plus ``r - rmin`` (a lower bound on every candidate
+    ``k`` owns), and if the value exceeds ``z_k + r_k + rmin`` no sphere can ever touch
+    ``k`` again (the highest centre touching it is ``z_k + r_k + r``): it is dead.
     """
     out = np.inf
     R = rad[k] + rmax
@@ -627,11 +653,14 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
         Slots of :class:`Deposit3DState`.
     start, stop : int
         Range to place (chunks let the caller show progress and stop on Ctrl-C).
-    work_f : (N, 5) float64, in/out
-        Per-sphere cache: best owned candidate ``z, x, y``, the radius it is for, and a lower
-        bound on the height of every candidate it owns (:func:`_min_cover`); the spheres are
-        searched in the order of that bound, and the search stops once it exceeds the best
-        height found.
+    work_f : (N, 6) float64, in/out
+        Per-sphere cache: best owned candidate ``z, x, y`` (``z = inf``: none below the
+        threshold of the search), the radius it is for, the envelope bound of
+        :func:`_min_cover` (radius-independent), and the cached lower bound for that radius
+        (the best height, or the search threshold when none was found).  The spheres are
+        searched in the order of a lower bound on their owned candidates (the envelope
+        bound plus ``r - rmin``, ``z_s`` where no floor position is near, the cached
+        bound), and the search stops once it exceeds the best height found.
     work_i : (N + ncx * ncy + N, ...) int64, in/out
         Packed integer state: see :func:`make_work`.
     cov : (mx * my,) float64, in/out
@@ -712,17 +741,27 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
             _global_candidates(r, pos, rad, L, per, tol, strict, planes, nplanes, head, nxt, hcell, ncx, ncy, rmax,
                                gbest, gsup, nrm)
             if strict:
+                # lower bound on each alive sphere's owned candidates for this radius
                 keys = np.empty(n_alive)
                 for q in range(n_alive):
-                    keys[q] = work_f[alive[q], 4]
+                    s = alive[q]
+                    lb = work_f[s, 4] + (r - rmin)
+                    if work_f[s, 4] > rmin + tol * rmin:
+                        # no floor position near s: every owned candidate is at or above z_s
+                        zb = pos[s, 2] - 2.0 * math.sqrt(tol) * (r + rad[s])
+                        if zb > lb:
+                            lb = zb
+                    if work_f[s, 3] == r and work_f[s, 5] > lb:
+                        lb = work_f[s, 5]  # cached: the best owned height, or none below it
+                    keys[q] = lb
                 order = np.argsort(keys)
             else:
                 order = np.arange(n_alive)
             for qq in range(n_alive):
                 s = alive[order[qq]]
-                if strict and work_f[s, 4] > gbest[0] + tol * r:
+                if strict and keys[order[qq]] > gbest[0] + tol * r:
                     break  # every remaining candidate lies above the best one
-                if strict and work_f[s, 3] == r:
+                if strict and work_f[s, 3] == r and work_f[s, 0] < np.inf:
                     best[0] = work_f[s, 0]
                     best[1] = work_f[s, 1]
                     best[2] = work_f[s, 2]
@@ -730,18 +769,26 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
                     bsup[1] = bsup_all[s, 1]
                     bsup[2] = bsup_all[s, 2]
                 else:
+                    thr = gbest[0] + tol * r if strict else np.inf
+                    floor_ok = (not strict) or work_f[s, 4] <= rmin + tol * rmin
                     _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, nxt, hcell, ncx,
-                                   ncy, rmax, best, bsup, nb, nrm)
+                                   ncy, rmax, best, bsup, nb, nrm, thr, floor_ok)
                     state[Deposit3DState.N_RECOMPUTED] += 1
                     if strict:
-                        work_f[s, 0] = best[0]
-                        work_f[s, 1] = best[1]
-                        work_f[s, 2] = best[2]
                         work_f[s, 3] = r
-                        bsup_all[s, 0] = bsup[0]
-                        bsup_all[s, 1] = bsup[1]
-                        bsup_all[s, 2] = bsup[2]
-                if best[0] < np.inf and _better(best[0], best[1], best[2], gbest[0], gbest[1], gbest[2], tol * r):
+                        if best[1] < np.inf:
+                            state[Deposit3DState.N_IMPROVED] += 1
+                            work_f[s, 0] = best[0]
+                            work_f[s, 1] = best[1]
+                            work_f[s, 2] = best[2]
+                            work_f[s, 5] = best[0]
+                            bsup_all[s, 0] = bsup[0]
+                            bsup_all[s, 1] = bsup[1]
+                            bsup_all[s, 2] = bsup[2]
+                        else:
+                            work_f[s, 0] = np.inf
+                            work_f[s, 5] = thr  # no owned candidate below thr
+                if best[1] < np.inf and _better(best[0], best[1], best[2], gbest[0], gbest[1], gbest[2], tol * r):
                     gbest[0] = best[0]
                     gbest[1] = best[1]
                     gbest[2] = best[2]
@@ -800,7 +847,7 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
                         work_f[k, 3] = -1.0  # cache invalid
                         low = _min_cover(k, pos, rad, cov, hc, mx, my, L, per, rmax)
                         work_f[k, 4] = low
-                        if low > pos[k, 2] + rad[k] + rmax:
+                        if low > pos[k, 2] + rad[k] + rmin:
                             _unlink(k, head, nxt, prv, cell)
                             q = apos[k]
                             last = alive[n_alive - 1]
@@ -822,7 +869,7 @@ def make_work(n, lx, ly, rmax, column_cell):
     ncy = max(1, int(ly // (2.0 * rmax)))
     mx = max(1, int(lx // column_cell))
     my = max(1, int(ly // column_cell))
-    work_f = np.full((n, 5), -1.0)
+    work_f = np.full((n, 6), -1.0)
     work_i = np.full(ncx * ncy + 8 * n + 1, -1, np.int64)
     work_i[-1] = 0
     cov = np.zeros(mx * my)

@@ -62,7 +62,7 @@ def _parse_radii(sizes, dim=None):
 
 
 def deposit_arrays(radii, width, periodic=True, bed_positions=None, bed_radii=None,
-                   tolerance=DEFAULT_TOLERANCE, progress=None):
+                   tolerance=DEFAULT_TOLERANCE, progress=None, floor_rule="left"):
     """Deposit disks of the given radii **in the given order**; plain arrays in and out.
 
     Parameters
@@ -79,6 +79,8 @@ def deposit_arrays(radii, width, periodic=True, bed_positions=None, bed_radii=No
         Relative tolerance of the contact tests and of the tie rule.
     progress : bool, optional
         Progress bar (default: only on a terminal).
+    floor_rule : {"left", "centred"}
+        Bare-floor placement (see :func:`deposit`).
 
     Returns
     -------
@@ -122,6 +124,7 @@ def deposit_arrays(radii, width, periodic=True, bed_positions=None, bed_radii=No
     params[DepositParam.PERIODIC] = 1.0 if periodic else 0.0
     params[DepositParam.TOL] = tolerance
     params[DepositParam.RMAX] = rad.max()
+    params[DepositParam.FLOOR_RULE] = float(_floor_rule_code(floor_rule))
     cap = 2 * n + 8
     cid = np.zeros(cap, dtype=np.int64)
     clo = np.zeros(cap)
@@ -146,6 +149,15 @@ def deposit_arrays(radii, width, periodic=True, bed_positions=None, bed_radii=No
                 break
     stats = {"chain_length": int(state[DepositState.CHAIN_LEN]), "chain_max": int(state[DepositState.CHAIN_MAX])}
     return pos, rad, support, stats
+
+
+def _floor_rule_code(floor_rule):
+    from .._kernels.deposit import FLOOR_CENTRED, FLOOR_LEFT
+
+    codes = {"left": FLOOR_LEFT, "centred": FLOOR_CENTRED}
+    if floor_rule not in codes:
+        raise InvalidInputError(f"floor_rule={floor_rule!r}: allowed are 'left' and 'centred'")
+    return codes[floor_rule]
 
 
 def deposit_arrays_3d(radii, width, periodic=True, tolerance=DEFAULT_TOLERANCE, progress=None):
@@ -210,7 +222,8 @@ def deposit_arrays_3d(radii, width, periodic=True, tolerance=DEFAULT_TOLERANCE, 
             k = stop
     stats = {"alive": int(state[k3.Deposit3DState.N_ALIVE]), "alive_max": int(state[k3.Deposit3DState.ALIVE_MAX]),
              "overhang_placements": int(state[k3.Deposit3DState.N_OVERHANG]),
-             "candidate_searches": int(state[k3.Deposit3DState.N_RECOMPUTED])}
+             "candidate_searches": int(state[k3.Deposit3DState.N_RECOMPUTED]),
+             "improving_searches": int(state[k3.Deposit3DState.N_IMPROVED])}
     return pos, support, stats
 
 
@@ -259,7 +272,7 @@ def _deposit_3d(radii, species, width, boundary, order, seed, tol, progress):
 
 
 def deposit(sizes, width=None, boundary="periodic", order="random", seed=None, bed=None,
-            tolerance=DEFAULT_TOLERANCE, progress=None, dim=None):
+            tolerance=DEFAULT_TOLERANCE, progress=None, dim=None, floor_rule="left"):
     """Pack of disks (2D) or spheres (3D) built by sequential deposition (potential minimisation).
 
     Each disk, in turn, goes to the lowest centre height at which it rests on the floor,
@@ -297,6 +310,13 @@ def deposit(sizes, width=None, boundary="periodic", order="random", seed=None, b
         Relative tolerance of the contact tests and of the tie rule.
     progress : bool, optional
         Progress bar (default: only on a terminal).
+    floor_rule : {"left", "centred"}
+        Where a disk goes on bare floor (2D): the leftmost point of the leftmost bare
+        stretch (``"left"``: a bare floor fills as a touching row from the left), or the
+        midpoint of that stretch (``"centred"``: the floor fills by bisection, leaving
+        gaps narrower than a disk, as the LMGC90 ``deposit2D`` routine of the seed's
+        group does).  All other positions (pockets, walls) follow the same lowest-then-
+        leftmost rule.
 
     Returns
     -------
@@ -331,7 +351,11 @@ def deposit(sizes, width=None, boundary="periodic", order="random", seed=None, b
         raise InvalidInputError(f"tolerance={tolerance!r} must be a number in (0, 1e-3]") from None
     if not (0 < tol <= 1e-3):
         raise InvalidInputError(f"tolerance={tolerance!r} must be in (0, 1e-3]")
+    if floor_rule not in ("left", "centred"):
+        raise InvalidInputError(f"floor_rule={floor_rule!r}: allowed are 'left' and 'centred'")
     if dim == 3:
+        if floor_rule != "left":
+            raise InvalidInputError("floor_rule='centred' is supported for 2D deposits only")
         if bed is not None:
             raise InvalidInputError("bed= is supported for 2D deposits only")
         return _deposit_3d(radii, species, width, boundary, order, seed, tol, progress)
@@ -372,7 +396,7 @@ def deposit(sizes, width=None, boundary="periodic", order="random", seed=None, b
         perm = rng_from(ss).permutation(radii.size)
     else:
         perm = np.arange(radii.size)
-    pos, rad, support, stats = deposit_arrays(radii[perm], width, periodic, bed_p, bed_r, tol, progress)
+    pos, rad, support, stats = deposit_arrays(radii[perm], width, periodic, bed_p, bed_r, tol, progress, floor_rule)
     sp = np.concatenate([bed_sp, species[perm]])
     height = float(np.max(pos[:, 1] + rad))
     meta = {
@@ -380,6 +404,7 @@ def deposit(sizes, width=None, boundary="periodic", order="random", seed=None, b
         "method": "potential_minimisation",
         "boundary": boundary,
         "order": order,
+        "floor_rule": floor_rule,
         "width": width,
         "tolerance": tol,
         "seed": seed_record(ss),
