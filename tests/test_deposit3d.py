@@ -170,3 +170,27 @@ def test_equal_spheres_and_reproducibility_and_errors():
         pp.deposit(s3, bed=(np.zeros((1, 3)), [0.5]))
     walls = pp.deposit(np.full(200, 0.5), width=(4.0, 5.0), boundary="walls", seed=1, dim=3)
     assert walls.periodic == (False, False, False) and walls.box[0] == 4.0 and walls.box[1] == 5.0
+
+
+def _simple_cubic(n_xy, n_z, walls):
+    """Simple cubic lattice of unit-diameter spheres resting on the floor (a 'deposit' with an exact fraction)."""
+    g = np.arange(n_xy) + 0.5
+    X, Y, Z = np.meshgrid(g, g, np.arange(n_z) + 0.5, indexing="ij")
+    pos = np.c_[X.ravel(), Y.ravel(), Z.ravel()]
+    per = (not walls, not walls, False)
+    return pp.Packing(pos, np.full(len(pos), 0.5), [float(n_xy), float(n_xy), float(n_z)], periodic=per)
+
+
+@pytest.mark.parametrize("walls", [False, True])
+def test_deposit_statistics_3d_on_a_simple_cubic_lattice(walls):
+    """Window fraction pi/6 and coordination 6 of a simple cubic lattice: exact (periodic footprint:
+    spherical slabs) or to 1e-4 (walls: 256 Gauss-Legendre slices of exact disk areas; the slice area has
+    square-root kinks where a slice disk meets a window edge, measured error 2e-5), with window edges on
+    lattice symmetry planes (margin 2); mean diameter 1 in every strip."""
+    pk = _simple_cubic(8, 10, walls)
+    st = pp.analysis.DepositStatistics(margin=2.0, n_bins=10).compute(pk)
+    assert st.packing_fraction == pytest.approx(np.pi / 6, rel=1e-12 if not walls else 1e-4)
+    assert st.coordination == pytest.approx(6.0)
+    assert len(st.window) == 6 and st.window[-2:] == pytest.approx((2.0, 8.0))
+    np.testing.assert_allclose(st.profile_fraction, np.pi / 6, rtol=1e-12 if not walls else 1e-4)
+    np.testing.assert_allclose(st.profile_mean_diameter, 1.0)

@@ -169,9 +169,29 @@ def test_deposit_protocol_matches_pp_deposit(tmp_path):
     assert curves["deposit"]["x_name"] == "height" and "fraction" in curves["deposit"]["curves"]
 
 
-def test_deposit_protocol_needs_2d_sizes(tmp_path):
-    study = _dep_study(psd={"model": "uniform_volume", "d_min": 0.5, "d_max": 1.0, "n": 150})
-    with pytest.raises(InvalidInputError, match=r'^protocol.kind = "deposit": builds 2D disk packs; set \[psd\] dim = 2'):
+def test_deposit_protocol_in_3d_matches_pp_deposit(tmp_path):
+    """[psd] dim = 3: the stage deposits spheres (pp.deposit with dim=3) and [analysis.deposit] measures
+    the 3D window: the stored pack is re-deposited in its stored order (a deterministic function of the
+    order) to the same positions, and the recorded fraction is DepositStatistics on it."""
+    out = tmp_path / "r3"
+    study = _dep_study(psd={"model": "uniform_volume", "d_min": 0.7, "d_max": 1.0, "n": 260, "dim": 3},
+                       analysis={"deposit": {"margin": 0.8}}, width=5.0)
+    study["study"]["realizations"] = 1
+    pp.ensemble.run_study(study, out, progress=False)
+    rows = _rows(out)
+    pk = pp.io.read(out / "realizations" / "r0000.gsd")
+    assert pk.dim == 3 and pk.periodic == (True, True, False) and pk.meta["dim"] == 3
+    again = pp.deposit(np.array(pk.radii), width=5.0, order="given", dim=3, progress=False)
+    np.testing.assert_allclose(again.positions, pk.positions, rtol=0, atol=1e-12)
+    st = pp.analysis.DepositStatistics(margin=0.8).compute(pk)
+    assert float(rows[0]["deposit.packing_fraction"]) == pytest.approx(st.packing_fraction, rel=1e-12)
+    assert 0.5 < st.packing_fraction < 0.7  # a random deposit of spheres, not a lattice or a gas
+    assert pk.min_gap() >= -1e-9
+
+
+def test_deposit_protocol_centred_floor_needs_2d_sizes(tmp_path):
+    study = _dep_study(psd={"model": "uniform_volume", "d_min": 0.5, "d_max": 1.0, "n": 150}, floor_rule="centred")
+    with pytest.raises(InvalidInputError, match=r'^protocol.floor_rule = "centred": only for 2D deposits'):
         pp.ensemble.run_study(study, tmp_path / "r", progress=False)
 
 

@@ -73,8 +73,8 @@ prints it with every type, bound, default and doc). The built-ins:
     ``start_fraction``; ``stage_shakes`` (global shakes after each stage).  ``"brownian"``: a
     colloidal gel by Brownian dynamics (``[psd]`` of one size; ``volume_fraction``,
     ``surface_potential`` and the SI options of :func:`polypack.brownian`; ``docs/brownian.md``).
-    ``"deposit"``: 2D sequential deposition (``[psd] dim = 2``; ``width``, ``boundary``,
-    ``order``, ``tolerance``; ``docs/deposition.md``).
+    ``"deposit"``: sequential deposition of disks (``[psd] dim = 2``) or spheres (3D; ``width``,
+    ``boundary``, ``order``, ``tolerance``, ``floor_rule`` (2D); ``docs/deposition.md``).
 ``[analysis.rdf]``
     ``r_max`` (> 0, user length units), ``dr`` (> 0), ``method``, ``scale``.
 ``[analysis.kfunction]``

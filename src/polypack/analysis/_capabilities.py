@@ -92,7 +92,7 @@ def run_pores(packing, opts, seed):
 
 
 def run_deposit(packing, opts, seed):
-    """Window statistics of a 2D deposit, with its height profiles as top-level curves."""
+    """Window statistics of a deposit (2D or 3D), with its height profiles as top-level curves."""
     import polypack.analysis as pa
 
     est = pa.DepositStatistics(**opts).compute(packing)
@@ -141,5 +141,5 @@ register("analysis", "deposit", DepositOptions, run_deposit,
          Outputs(scalars=("packing_fraction", "packing_fraction_err", "coordination"), flatten=("contact_shares",),
                  curves=Curves("height", "height above the floor y (user length units)",
                                "packing fraction of the strip", plot=("fraction",))),
-         doc="packing fraction, coordination and height profiles of a 2D deposit in a bulk window (§2.4 of "
+         doc="packing fraction, coordination and height profiles of a deposit (2D or 3D) in a bulk window (§2.4 of "
              "001_ad5bae0acea940c4.txt)", requires=(_A + "DepositStatistics",))

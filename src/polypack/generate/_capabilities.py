@@ -6,7 +6,7 @@
           000_2cedc098acbd866b.txt), then ``global_shakes`` global shakes.
 ``brownian``  a colloidal gel by Brownian dynamics with DLVO forces (:func:`polypack.brownian`,
           §2.2 of 003_873b69fc71c74cf6.txt); run functions in :mod:`polypack.generate.protocols`.
-``deposit``  2D sequential deposition of disks (:func:`polypack.deposit`, §2.4 of
+``deposit``  sequential deposition of disks (2D) or spheres (3D) (:func:`polypack.deposit`, §2.4 of
           001_ad5bae0acea940c4.txt).
 
 An option a protocol does not use is an error in a study (``protocol.max_seconds: not
@@ -219,12 +219,14 @@ class BrownianOptions:
 
 @dataclass(frozen=True)
 class DepositOptions:
-    """``[protocol] kind = "deposit"``: the options of :func:`polypack.deposit` (``[psd] dim = 2``)."""
+    """``[protocol] kind = "deposit"``: the options of :func:`polypack.deposit` (disks for ``[psd] dim = 2``, spheres for 3)."""
 
-    width: float = option(None, v.positive, "box width W (default: a roughly square deposit)")
+    width: float = option(None, v.positive, "box width W, in 3D the side of the square footprint (default: a roughly square/cubic deposit)")
     boundary: str = option("periodic", v.choice("periodic", "walls"), "x axis periodic or side walls")
     order: str = option("random", v.choice("random", "given"), "deposition order: random (from the seed) or as sized")
     tolerance: float = option(None, v.positive, "relative tolerance of contacts and ties (<= 1e-3)")
+    floor_rule: str = option(None, v.choice("left", "centred"),
+                             "2D bare floor: leftmost point (left, default) or midpoint (centred, LMGC90) of the leftmost bare stretch")
 
 
 _P = "polypack.generate.protocols:"
@@ -233,6 +235,6 @@ register("protocol", "brownian", BrownianOptions, _P + "run_brownian", Outputs()
          requires=("polypack.generate:brownian",), check=_P + "check_brownian", preflight=_P + "preflight_brownian",
          kernels=("polypack._kernels.bd",))
 register("protocol", "deposit", DepositOptions, _P + "run_deposit", Outputs(),
-         doc="2D sequential deposition of disks (potential minimisation), §2.4 of 001_ad5bae0acea940c4.txt",
+         doc="sequential deposition of disks (2D) or spheres (3D) by potential minimisation, §2.4 of 001_ad5bae0acea940c4.txt",
          requires=("polypack.generate:deposit",), preflight=_P + "preflight_deposit",
-         kernels=("polypack._kernels.deposit",))
+         kernels=("polypack._kernels.deposit", "polypack._kernels.deposit3d"))

@@ -17,7 +17,8 @@ resolved ``[protocol]`` table and the study's sizes to one public generator.
     the gel in metres.  A gel whose structure was not stable within the time or step
     budget gets ``status = "time_budget"`` and is left out of the ensemble averages.
 ``deposit``
-    :func:`polypack.deposit`: a 2D pack of disks by sequential deposition (§2.4 of
+    :func:`polypack.deposit`: a 2D pack of disks or a 3D pack of spheres (the size set's
+    dimension) by sequential deposition (§2.4 of
     001_ad5bae0acea940c4.txt); the study's ``[psd]`` must have ``dim = 2``.
 """
 
@@ -87,15 +88,21 @@ def run_brownian(sizes, pr: dict, seed, monitor=None):
 
 
 def preflight_deposit(pr: dict, info: dict, path: str = "protocol") -> None:
-    """Before a study runs: 2D sizes (``[psd] dim = 2``)."""
-    if info.get("dim", 3) != 2:
+    """Before a study runs: ``floor_rule = "centred"`` needs 2D sizes (``[psd] dim = 2``)."""
+    dim = info.get("dim", 3)
+    if pr.get("floor_rule") not in (None, "left") and dim != 2:
         raise InvalidInputError(
-            f'{path}.kind = "deposit": builds 2D disk packs; set [psd] dim = 2 (the sizes are for dim={info.get("dim")})')
+            f'{path}.floor_rule = "{pr["floor_rule"]}": only for 2D deposits (set [psd] dim = 2; the sizes are '
+            f"for dim={dim})")
 
 
 def run_deposit(sizes, pr: dict, seed, monitor=None):
-    """A 2D deposit of the study's disks (:func:`polypack.deposit`), in a random order from ``seed``."""
+    """A deposit of the study's disks (2D) or spheres (3D) (:func:`polypack.deposit`), in a random order from ``seed``.
+
+    The dimension is the size set's (``[psd] dim``); in 3D ``width`` is the side of a
+    square footprint.
+    """
     from .deposit import deposit
 
-    kw = {k: pr[k] for k in ("width", "boundary", "order", "tolerance") if k in pr}
+    kw = {k: pr[k] for k in ("width", "boundary", "order", "tolerance", "floor_rule") if k in pr}
     return deposit(sizes, seed=seed, progress=False, **kw)
