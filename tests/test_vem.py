@@ -268,3 +268,21 @@ def test_frictionless_has_no_bonds(small):
     m = small.meta["vem"]
     assert m["structure_contacts"] == "frictionless" and m["bonds_at_jamming"] == 0
     assert max(m["series"]["bonds"]) == 0.0
+
+
+def test_void_contacts_get_the_void_stiffnesses():
+    """Every contact that involves a void carries kn,V and ks,V, structure-structure contacts
+    kn and ks (module docstring of polypack.generate.vem); four distinct values so that any
+    swap shows. Spheres 0-3 are structure, 4-6 voids, on a line with overlapping neighbours."""
+    from polypack.generate.vem import _Assembly
+
+    x = np.column_stack([np.arange(7) * 1.9 + 1.0, np.full(7, 5.0), np.full(7, 5.0)])
+    r = np.ones(7)
+    asm = _Assembly(x, r, np.full(3, 20.0), 4, 1.0, 0.1, 0.5, 0.001, 0.0, 0.9, 0.2)
+    pairs = {(int(a), int(b)) for a, b in zip(asm.ci, asm.cj)}
+    assert pairs == {(k, k + 1) for k in range(6)}  # the oracle: neighbours on the line
+    struct = (asm.ci < 4) & (asm.cj < 4)
+    assert struct.sum() == 3 and (~struct).sum() == 3
+    np.testing.assert_array_equal(asm.ckn, np.where(struct, 1.0, 0.5))
+    np.testing.assert_array_equal(asm.cks, np.where(struct, 0.1, 0.001))
+    np.testing.assert_array_equal(asm.crest, 2.0)
