@@ -338,7 +338,7 @@ MUTANTS += [
            T_DEM, "swapped indices (Lees-Edwards tilt)"),
     Mutant("k-contact-lever", K + "contacts.py",
            "        li = 0.5 * (d + ri - rj)\n", "        li = 0.5 * (d + rj - ri)\n",
-           T_DEM, "swapped radii (lever arm)"),
+           ("tests/test_dem_contacts.py",) + T_DEM, "swapped radii (lever arm)"),
     Mutant("k-contact-tension", K + "contacts.py",
            "        if -fn >= fnb:\n", "        if fn >= fnb:\n",
            T_DEM, "wrong sign (tensile breakage)"),
