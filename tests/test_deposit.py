@@ -279,6 +279,15 @@ def test_first_layer_fills_the_floor_from_the_left():
     assert np.allclose(pk.positions[:, 1], 0.5)
 
 
+def test_equal_pockets_fill_from_the_left():
+    # tie rule among pockets of one height: on a full floor row of equal disks every pocket of
+    # the second layer lies at 0.5 + sqrt(3)/2; the leftmost wins, then the next one to the right
+    r = np.full(12, 0.5)
+    pk = pp.deposit(r, width=10.0, boundary="walls", order="given")
+    np.testing.assert_allclose(pk.positions[10:, 0], [1.0, 2.0], atol=1e-9)
+    np.testing.assert_allclose(pk.positions[10:, 1], 0.5 + np.sqrt(0.75), atol=1e-9)
+
+
 def test_sizeset_input_and_bad_input():
     m = pp.psd.CumulativeBeta(a=1, b=1, span=0.5, dim=2)
     s = pp.psd.discretize(m, n_classes=4, min_per_class=10, min_total=300, seed=1)

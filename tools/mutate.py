@@ -397,7 +397,7 @@ MUTANTS += [
     # deposition
     Mutant("k-dep2-tie-rule", K + "deposit.py",
            "    if y <= best_y + tie and x < best_x:\n", "    if y <= best_y + tie and x > best_x:\n",
-           T_DEP2, "inverted tie rule"),
+           ("tests/test_deposit.py::test_equal_pockets_fill_from_the_left",) + T_DEP2, "inverted tie rule"),
     Mutant("k-dep2-pair-between", K + "deposit.py",
            "    if px < lo or px > hi:\n        return False, 0.0, 0.0, -1, -1\n    return True, xi + px",
            "    if px < lo and px > hi:\n        return False, 0.0, 0.0, -1, -1\n    return True, xi + px",
