@@ -1,9 +1,8 @@
 """Three-point shear (and bulk) bounds from the classical variational principles.
 
-Used by :func:`polypack.mechanics.effective.three_point_bounds`. The bounds are derived
-here (no printed form of the McCoy / Milton-Phan-Thien shear bounds could be checked
-in this project); the derivation is validated by reproducing the Beran-Molyneux bulk
-bounds exactly (tests).
+The independent derivation behind :func:`polypack.mechanics.effective.three_point_bounds`,
+kept as its numerical oracle (tests): ``three_point_bounds`` evaluates the closed
+forms, this module evaluates the trial-field energies themselves and minimises them.
 
 Upper bound (minimum potential energy). For a two-phase composite with phase-2
 indicator χ, ``f = χ − φ2``, a reference isotropic medium ``L0`` with strain Green
@@ -22,13 +21,29 @@ with ``δL = L2 − L1`` and the three-point integrals
 (:class:`polypack.analysis.ThreePointParameters`). The local part of Γ0 gives the
 ``P δL P`` term (``⟨χ f²⟩ = φ2 φ1²``), the two-point terms with one principal-value
 kernel vanish by isotropy, and only the l = 2, 4 Legendre components of S3 survive
-the angular integrals. Minimising over ``T`` gives ``ε̄:⟨L⟩:ε̄ − b:M⁻¹:b``; the result
-depends on the reference medium only through its Poisson ratio ν0 (b ∝ 1/G0,
-M ∝ 1/G0²), over which it is minimised.
+the angular integrals. Minimising over ``T`` gives ``ε̄:⟨L⟩:ε̄ − b:M⁻¹:b``.
 
 Lower bound (minimum complementary energy): the same with compliances
 ``M_i = L_i⁻¹`` and the stress Green operator ``Δ0 = L0 − L0 Γ0 L0`` (symbol
 ``L0 − L0 Γ̂ L0``, kernel ``−L0 H L0``), whose fields are equilibrated with mean σ̄.
+
+The reference medium. The result depends on L0 only through
+``s = (λ0 + G0)/(λ0 + 2G0) = 1/(2(1 − ν0))`` (b ∝ 1/G0, M ∝ 1/G0²): ``Γ̂ = A − s B``
+and ``H ∝ (4 − 2s) H1 + 2s H2`` are linear in ``s``, every coefficient of the energy
+is a quadratic polynomial in ``s`` (for both principles), and the trial fields are
+admissible for *every real* ``s`` (Γ0 ∗ τ is a strain and Δ0 ∗ τ a divergence-free
+stress for any isotropic L0, positive or not), so ``s`` is a free parameter on the
+whole real line, not only on the physical range ``ν0 ∈ (−1, 1/2)``. The stationarity
+condition of ``b²/M`` in ``s`` is linear, with the roots
+
+    upper:  s* = 2(3⟨K⟩_ζ + ⟨G⟩_ζ) / (6⟨K⟩_ζ + 9⟨G⟩_η − ⟨G⟩_ζ),
+    lower:  s* = 16(⟨1/K⟩_ζ + 3⟨1/G⟩_ζ) / (64⟨1/K⟩_ζ + 21⟨1/G⟩_ζ + 27⟨1/G⟩_η),
+
+(``⟨b⟩_ζ = ζ1 b1 + ζ2 b2``, ``⟨b⟩_η = η1 b1 + η2 b2``), and the energies there are the
+closed forms used by ``three_point_bounds`` (derived with sympy from the coefficients
+below; the lower one is exactly Milton and Phan-Thien's lower bound). Here the
+energies are minimised numerically over a wide range of ``s`` instead, which is what
+the tests compare with the closed forms.
 
 Everything is isotropic, so each matrix reduces to its two eigenvalues on the bulk
 (J) and deviatoric (K) projectors; the angular integrals are exact Gauss rules
@@ -52,7 +67,9 @@ _WW = np.outer(_MANDEL_W, _MANDEL_W)
 _DIRS, _W = _sphere_directions(5)  # exact for degree <= 9 on the sphere
 _U = _DIRS @ _DIRS.T
 _PL = {l: (4.0 * np.pi) ** 2 * np.outer(_W, _W) * np.polynomial.legendre.Legendre.basis(l)(_U) for l in (2, 4)}
-_NU_GRID = np.concatenate([np.linspace(-0.9, 0.4, 27), np.linspace(0.42, 0.4995, 8)])
+# reference parameter s = 1/(2(1 − ν0)) scanned well beyond the physical range (0.25, 1);
+# s = 1 (an incompressible reference) is singular for the stress operator and skipped
+_S_GRID = np.concatenate([np.linspace(-3.0, 0.98, 200), [0.99, 0.995, 0.999, 1.001, 1.005, 1.01], np.linspace(1.02, 4.0, 150)])
 
 
 def _mandel_many(t):
@@ -80,16 +97,19 @@ def _bases():
     return _mandel_many(a), _mandel_many(nnnn), _mandel_many(sym(h1)), _mandel_many(sym(h2))
 
 
-def _gamma_hat(nu0):
-    """Mandel matrices of the strain Green operator symbol Γ̂(n) for G0 = 1, Poisson ratio ν0."""
+def _gamma_hat(s):
+    """Mandel matrices of the strain Green operator symbol Γ̂(n) for G0 = 1, ``s = 1/(2(1 − ν0))``."""
     a, b, _, _ = _bases()
-    return a - b / (2.0 * (1.0 - nu0))  # (λ0 + G0)/(G0 (λ0 + 2 G0)) = 1/(2(1 − ν0)) at G0 = 1
+    return a - s * b  # (λ0 + G0)/(G0 (λ0 + 2 G0)) = s at G0 = 1
 
 
-def _kernel(nu0):
-    """Mandel matrices of H(n): Γ0(r) = H(r̂)/r³ for r ≠ 0 (strain −Γ0 ∗ τ), G0 = 1."""
+def _kernel(s):
+    """Mandel matrices of H(n): Γ0(r) = H(r̂)/r³ for r ≠ 0 (strain −Γ0 ∗ τ), G0 = 1.
+
+    ``((3 − 4ν0) H1 + H2)/(16π(1 − ν0))`` written with ``s = 1/(2(1 − ν0))``.
+    """
     _, _, h1, h2 = _bases()
-    return ((3.0 - 4.0 * nu0) * h1 + h2) / (16.0 * np.pi * (1.0 - nu0))
+    return ((4.0 - 2.0 * s) * h1 + 2.0 * s * h2) / (16.0 * np.pi)
 
 
 def _eig(m):
@@ -104,17 +124,17 @@ def _pair_form(pl, h, e):
 
 
 @lru_cache(maxsize=4096)
-def _coefficients(nu0, complementary):
-    """Phase-independent isotropic coefficients at reference Poisson ratio ν0 (G0 = 1).
+def _coefficients(s, complementary):
+    """Phase-independent isotropic coefficients at reference parameter ``s = 1/(2(1 − ν0))`` (G0 = 1).
 
     Returns ``p`` (2,), ``q`` (2, 2) and ``m2``, ``m4`` (2, 2): ``p`` the eigenvalues of
     P, ``q[a, b]`` the ``a``-eigenvalue of ⟨Γ̂ E_b Γ̂⟩ for the projector ``E_b`` (J, K),
     ``m_l[a, b]`` likewise for M_l(E_b). With ``complementary`` the stress operator.
     """
-    g = _gamma_hat(nu0)
-    h = _kernel(nu0)
+    g = _gamma_hat(s)
+    h = _kernel(s)
     if complementary:
-        k0 = 2.0 * (1.0 + nu0) / (3.0 * (1.0 - 2.0 * nu0))
+        k0 = (1.0 - 2.0 * s) / (s - 1.0) + 2.0 / 3.0  # λ0 + 2G0/3 with λ0 = (1 − 2s)/(s − 1)
         l0 = 3.0 * k0 * _J + 2.0 * _KDEV
         g = l0[None] - l0[None] @ g @ l0[None]
         h = l0[None] @ h @ l0[None]
@@ -130,9 +150,9 @@ def _coefficients(nu0, complementary):
     return p, q, m2, m4
 
 
-def _energy(nu0, a1, a2, phi2, i2, i4, mode, complementary):
+def _energy(s, a1, a2, phi2, i2, i4, mode, complementary):
     """Minimum over T of the trial energy per unit load in ``mode`` (0 bulk, 1 shear), in eigenvalues."""
-    p, q, m2, m4 = _coefficients(float(nu0), complementary)
+    p, q, m2, m4 = _coefficients(float(s), complementary)
     phi1 = 1.0 - phi2
     da = a2 - a1
     mm = (phi1 * phi2 * (q @ a1) + phi2 * phi1**2 * p**2 * da + 2.5 * i2 * (m2 @ da) + 4.5 * i4 * (m4 @ da))[mode]
@@ -147,7 +167,8 @@ def variational_bound(phase1, phase2, phi2, zeta2, eta2, mode, kind):
     """Three-point bound on the bulk (``mode="bulk"``) or shear modulus, ``kind`` "upper"/"lower".
 
     ``phase1``, ``phase2`` are ``(K, G)`` pairs of finite positive moduli. Returns the
-    modulus and the optimal reference Poisson ratio.
+    modulus and the optimal reference parameter ``s = 1/(2(1 − ν0))`` (scanned on
+    [−3, 4], then refined).
     """
     (k1, g1), (k2, g2) = phase1, phase2
     phi1 = 1.0 - phi2
@@ -160,19 +181,19 @@ def variational_bound(phase1, phase2, phi2, zeta2, eta2, mode, kind):
     else:
         a1, a2 = np.array([3 * k1, 2 * g1]), np.array([3 * k2, 2 * g2])
 
-    def f(nu):
-        return _energy(nu, a1, a2, phi2, i2, i4, md, comp)
+    def f(s):
+        return _energy(s, a1, a2, phi2, i2, i4, md, comp)
 
-    vals = np.array([f(nu) for nu in _NU_GRID])
+    vals = np.array([f(s) for s in _S_GRID])
     k = int(np.argmin(vals))
-    lo = _NU_GRID[max(k - 1, 0)]
-    hi = _NU_GRID[min(k + 1, len(_NU_GRID) - 1)]
-    best_nu, best = float(_NU_GRID[k]), float(vals[k])
-    if hi > lo:
+    lo = _S_GRID[max(k - 1, 0)]
+    hi = _S_GRID[min(k + 1, len(_S_GRID) - 1)]
+    best_s, best = float(_S_GRID[k]), float(vals[k])
+    if hi > lo and not (lo < 1.0 < hi):
         r = minimize_scalar(f, bounds=(lo, hi), method="bounded", options={"xatol": 1e-12})
         if r.fun < best:
-            best_nu, best = float(r.x), float(r.fun)
-    # every ν0 gives a valid bound: the minimum found is one (the tightest found)
+            best_s, best = float(r.x), float(r.fun)
+    # every s gives a valid bound: the minimum found is one (the tightest found)
     scale = 3.0 if md == 0 else 2.0
     value = 1.0 / (scale * best) if comp else best / scale
-    return value, best_nu
+    return value, best_s

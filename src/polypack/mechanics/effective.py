@@ -51,6 +51,7 @@ __all__ = [
     "hashin_shtrikman",
     "self_consistent",
     "three_point_bounds",
+    "mpt_shear_parameters",
     "zeta_reference",
 ]
 
@@ -381,6 +382,42 @@ def _wavg(a1, a2, w2):
     return out
 
 
+def mpt_shear_parameters(matrix, inclusion, zeta2, eta2):
+    """The ``(Ξ, Θ)`` of the three-point shear bounds (lower, upper).
+
+    With ``⟨b⟩_ζ = ζ1 b1 + ζ2 b2`` and ``⟨b⟩_η = η1 b1 + η2 b2`` (``ζ1 = 1 − ζ2``,
+    ``η1 = 1 − η2``; phase 1 the matrix)::
+
+        Ξ = [⟨128/K + 99/G⟩_ζ + 45⟨1/G⟩_η]
+            / [30⟨1/G⟩_ζ⟨6/K − 1/G⟩_ζ + 6⟨1/G⟩_η⟨2/K + 21/G⟩_ζ],
+        Θ = [3⟨G⟩_η⟨6K + 7G⟩_ζ − 5⟨G⟩_ζ²] / [6⟨2K − G⟩_ζ + 30⟨G⟩_η],
+
+    which enter ``G = ⟨G⟩ − φ1φ2(G2 − G1)²/(⟨G̃⟩ + y)`` as ``y = Ξ`` (lower) and
+    ``y = Θ`` (upper). Both reduce to ``ζ(K, G) = G(9K + 8G)/(6(K + 2G))`` of the
+    matrix at ``ζ2 = η2 = 0`` and of the inclusions at ``ζ2 = η2 = 1`` (the
+    Hashin-Shtrikman values). See :func:`three_point_bounds`.
+    """
+    p1, p2 = _as_phase(matrix, "matrix"), _as_phase(inclusion, "inclusion")
+    z2, e2 = float(zeta2), float(eta2)
+    k1, g1, k2, g2 = p1.bulk, p1.shear, p2.bulk, p2.shear
+
+    def z(a1, a2):
+        return _wavg(a1, a2, z2)
+
+    def e(a1, a2):
+        return _wavg(a1, a2, e2)
+
+    ig_z, ig_e = z(1 / g1, 1 / g2), e(1 / g1, 1 / g2)
+    xi_num = z(128 / k1 + 99 / g1, 128 / k2 + 99 / g2) + 45 * ig_e
+    xi_den = 30 * ig_z * z(6 / k1 - 1 / g1, 6 / k2 - 1 / g2) + 6 * ig_e * z(2 / k1 + 21 / g1, 2 / k2 + 21 / g2)
+    kz, gz, ge = z(k1, k2), z(g1, g2), e(g1, g2)
+    th_num = 3 * ge * (6 * kz + 7 * gz) - 5 * gz * gz
+    th_den = 6 * (2 * kz - gz) + 30 * ge
+    xi = xi_num / xi_den if xi_den != 0.0 else math.inf
+    theta = th_num / th_den if th_den != 0.0 else math.inf
+    return xi, theta
+
+
 def three_point_bounds(matrix, inclusion, fraction, zeta2, eta2):
     """Three-point bounds of a two-phase composite from ζ2 and η2.
 
@@ -394,26 +431,40 @@ def three_point_bounds(matrix, inclusion, fraction, zeta2, eta2):
     They reduce to the Hashin-Shtrikman bounds at ``ζ2 = 0`` and ``1`` and are exact to
     second order in the phase contrast.
 
-    **Shear (derived here).** The shear bounds are the minimum-energy bounds of the
-    classical variational principles with the trial fields ``ε̄ − Γ0 ∗ [(χ2 − φ2) T]``
-    (upper) and ``σ̄ − Δ0 ∗ [(χ2 − φ2) T]`` (lower): Γ0, Δ0 the strain and stress Green
-    operators of an isotropic reference medium, χ2 the indicator of the inclusions and
-    ``T`` a constant tensor. The trial energies are exact functionals of φ2, ζ2 and η2
-    for statistically isotropic media (the three-point term is a sum of the l = 2 and
-    l = 4 Legendre moments of S3, i.e. of ζ2 and ``η2 − 5ζ2/21``), minimised over ``T``
-    in closed form and over the reference Poisson ratio numerically (the reference
-    shear modulus drops out); :mod:`polypack.mechanics._threepoint_bounds` has the
-    formulas. The same construction applied to the bulk modulus gives exactly the
-    Beran-Molyneux bounds above (to 1e-12, tests), and the shear bounds reduce to the
-    Hashin-Shtrikman bounds at ``ζ2 = η2 = 0`` and ``1``, lie inside them, are
-    invariant under relabelling the phases (``ζ2, η2 → 1 − ζ2, 1 − η2``) and agree with
-    each other to third order in the contrast. Both are rigorous for any realizable
-    ``(ζ2, η2)``; for pairs far from those of dispersions (e.g. ``ζ2 = 0.5, η2 = 0``) they
-    cross, which proves that no microstructure has them (``InfeasibleError``; packs of
-    spheres have ``η2 ≈ 2.3 ζ2``). They are of the McCoy / Milton-Phan-Thien
-    kind (same variational principles and three-point information); whether they
-    coincide with the printed Milton-Phan-Thien forms (Torquato 2002, ch. 21-23) could
-    not be checked here, as no copy of those forms was available.
+    **Shear** (Milton-Phan-Thien): ``G = ⟨G⟩ − φ1φ2(G2 − G1)²/(⟨G̃⟩ + y)`` with
+    ``y = Ξ`` (lower) and ``y = Θ`` (upper),
+
+    ``Ξ = [⟨128/K + 99/G⟩_ζ + 45⟨1/G⟩_η] / [30⟨1/G⟩_ζ⟨6/K − 1/G⟩_ζ + 6⟨1/G⟩_η⟨2/K + 21/G⟩_ζ]``,
+
+    ``Θ = [3⟨G⟩_η⟨6K + 7G⟩_ζ − 5⟨G⟩_ζ²] / [6⟨2K − G⟩_ζ + 30⟨G⟩_η]``
+
+    (``⟨b⟩_η = η1 b1 + η2 b2``; :func:`mpt_shear_parameters`). These are the optimal
+    bounds of the classical variational principles with the trial fields
+    ``ε̄ − Γ0 ∗ [(χ2 − φ2) T]`` (upper) and ``σ̄ − Δ0 ∗ [(χ2 − φ2) T]`` (lower), Γ0
+    and Δ0 the strain and stress Green operators of an isotropic reference medium, χ2
+    the inclusions' indicator, ``T`` a constant tensor: the trial energies are exact
+    functionals of φ2, ζ2, η2 for statistically isotropic media, and their minima over
+    ``T`` and over the reference medium are the closed forms above
+    (:mod:`polypack.mechanics._threepoint_bounds` derives them and checks them
+    numerically; the same construction for a bulk load gives the Beran-Molyneux
+    bounds). Ξ is identical (symbolically) to the Milton-Phan-Thien lower bound in the
+    form quoted from Torquato (2002); Θ is the upper bound of the same construction,
+    which as far as we recall is also the compact form of Berryman (1995). Neither
+    text could be consulted here, so Θ rests on the derivation and its checks. A
+    form recalled earlier in this project,
+    ``[10⟨G⟩_ζ²⟨K⟩_ζ + 5⟨G⟩_ζ⟨2K + 3G⟩_ζ⟨G⟩_η + ⟨3K + G⟩_ζ²⟨G⟩_η]/(6⟨K + 2G⟩_ζ²)``,
+    is *not* a bound: with ``G2 = G1(1 + δ)``, ``K2 = K1(1 + κδ)`` its first-order
+    term in δ exceeds Ξ's by ``5G1²(2K1 + 3G1)(η2 − ζ2)δ/(6(K1 + 2G1)²)``, so the two
+    differ at order δ³ in G, whereas every bound valid for both signs of the contrast
+    must match the exact expansion through third order; it falls below the lower
+    bound for weakly contrasting soft inclusions (tests).
+    Both bounds reduce to HS at ``ζ2 = η2 = 0`` and ``1``, lie inside HS, are invariant
+    under relabelling the phases and agree with each other to third order in the
+    contrast. For ``(ζ2, η2)`` far from those of dispersions (e.g. ``ζ2 = 0.5,
+    η2 = 0``) they cross, which proves that no microstructure has them
+    (``InfeasibleError``; packs of spheres have ``η2 ≈ 2.3 ζ2``), as does a bound beyond
+    the opposite HS bound; where one is merely weaker than HS (also only far from
+    dispersions) the HS bound is returned instead.
 
     Parameters
     ----------
@@ -432,7 +483,8 @@ def three_point_bounds(matrix, inclusion, fraction, zeta2, eta2):
     InvalidInputError
         On fractions or parameters outside [0, 1], or infinite or zero phase moduli.
     InfeasibleError
-        If the shear bounds cross (``(ζ2, η2)`` not realizable).
+        If the shear bounds cross or leave the Hashin-Shtrikman interval (``(ζ2, η2)``
+        not realizable).
 
     References
     ----------
@@ -443,6 +495,9 @@ def three_point_bounds(matrix, inclusion, fraction, zeta2, eta2):
            G. W. Milton, N. Phan-Thien, Proc. R. Soc. Lond. A 380, 305 (1982).
     .. [5] Z. Hashin, S. Shtrikman, J. Mech. Phys. Solids 11, 127 (1963) (variational
            principles with Green operators).
+    .. [6] J. G. Berryman, "Mixture theories for rock properties", in *Rock Physics
+           and Phase Relations*, AGU Reference Shelf 3, 205 (1995) (compact forms of
+           the three-point bounds with ζ and η averages).
     """
     p1, p2 = _as_phase(matrix, "matrix"), _as_phase(inclusion, "inclusion")
     phi2 = float(fraction)
@@ -475,14 +530,28 @@ def three_point_bounds(matrix, inclusion, fraction, zeta2, eta2):
     if phi1 * phi2 == 0.0:
         g = phi1 * p1.shear + phi2 * p2.shear
         return Phase(bulk=k_lo, shear=g), Phase(bulk=k_up, shear=g)
-    from ._threepoint_bounds import variational_bound
-
-    pair = ((p1.bulk, p1.shear), (p2.bulk, p2.shear))
-    g_up, _ = variational_bound(*pair, phi2, z2, e2, "shear", "upper")
-    g_lo, _ = variational_bound(*pair, phi2, z2, e2, "shear", "lower")
+    xi, theta = mpt_shear_parameters(p1, p2, z2, e2)
+    g1, g2 = p1.shear, p2.shear
+    g_lo, g_up = form(g1, g2, xi), form(g1, g2, theta)
+    g_tilde = phi2 * g1 + phi1 * g2
+    if not (g_tilde + xi > 0.0 and g_tilde + theta > 0.0):
+        raise InfeasibleError(
+            f"zeta2={z2:g}, eta2={e2:g} at fraction {phi2:g}: the three-point shear bounds are undefined "
+            f"(Xi={xi:.6g}, Theta={theta:.6g}), so no microstructure has these parameters"
+        )
+    hs_lo, hs_up = hashin_shtrikman([p1, p2], [phi1, phi2])
     if g_lo > g_up * (1.0 + 1e-9):
         raise InfeasibleError(
             f"zeta2={z2:g}, eta2={e2:g} at fraction {phi2:g}: the three-point shear bounds cross "
             f"(lower {g_lo:.6g} > upper {g_up:.6g}), so no microstructure has these parameters"
         )
+    if g_lo > hs_up.shear * (1.0 + 1e-9) or g_up < hs_lo.shear * (1.0 - 1e-9):
+        raise InfeasibleError(
+            f"zeta2={z2:g}, eta2={e2:g} at fraction {phi2:g}: a three-point shear bound (lower {g_lo:.6g}, "
+            f"upper {g_up:.6g}) lies beyond the Hashin-Shtrikman bounds ({hs_lo.shear:.6g}, {hs_up.shear:.6g}), "
+            "so no microstructure has these parameters"
+        )
+    # far from the parameters of dispersions a three-point bound can be weaker than HS; the
+    # tighter of two rigorous bounds is returned
+    g_lo, g_up = max(g_lo, hs_lo.shear), min(g_up, hs_up.shear)
     return Phase(bulk=k_lo, shear=g_lo), Phase(bulk=k_up, shear=g_up)
