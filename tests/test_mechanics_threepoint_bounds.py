@@ -226,3 +226,29 @@ def test_dilute_limits():
         coef.append((lo.shear - 1 - 2.5 * c) / c**2)
     assert coef[1] == pytest.approx(coef[0], abs=0.01)  # converged in c
     assert 2.5 < coef[1] < 5.0
+
+
+def test_infinite_contrast_limits():
+    # rigid spheres (disconnected, zeta2 > 0): the upper bound grows without limit with the
+    # spheres' stiffness, the lower one converges to a finite value above MT (= HS lower);
+    # voids: the lower bound goes to 0 with the voids' moduli, the upper one stays finite, > 0 and
+    # below MT (= HS upper for voids). A swapped or mis-normalised Xi/Theta breaks one of these.
+    c, z2, e2 = 0.4, 0.0775, 0.2063  # a CRM pack at c = 0.4
+    m = EPOXY
+    hi = [three_point_bounds(m, Phase(m.bulk * t, m.shear * t), c, z2, e2) for t in (1e6, 1e7)]
+    assert hi[1][1].shear / hi[0][1].shear == pytest.approx(10.0, rel=1e-3)  # upper ∝ stiffness
+    assert hi[1][0].shear == pytest.approx(hi[0][0].shear, rel=1e-5)  # lower converged
+    mt = pp_mt(m, c)
+    assert hi[1][0].shear > mt * (1 + 1e-3)
+    lo_v = [three_point_bounds(m, Phase(m.bulk * t, m.shear * t), c, z2, e2) for t in (1e-6, 1e-7)]
+    assert lo_v[1][0].shear / lo_v[0][0].shear == pytest.approx(0.1, rel=1e-2)  # lower ∝ void moduli
+    assert lo_v[1][1].shear == pytest.approx(lo_v[0][1].shear, rel=1e-5)
+    mt_void = 1.0 / ((1 - c) / (m.shear + zeta_reference(m.bulk, m.shear)) + c / zeta_reference(m.bulk, m.shear))
+    mt_void -= zeta_reference(m.bulk, m.shear)
+    assert 0.0 < lo_v[1][1].shear < mt_void * (1 - 1e-3)
+
+
+def pp_mt(m, c):
+    # MT shear for rigid spheres: Γ(z) with G2 → ∞, z = ζ(K0, G0)
+    z = zeta_reference(m.bulk, m.shear)
+    return 1.0 / ((1 - c) / (m.shear + z)) - z
