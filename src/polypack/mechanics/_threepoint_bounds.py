@@ -40,8 +40,9 @@ condition of ``b²/M`` in ``s`` is linear, with the roots
     lower:  s* = 16(⟨1/K⟩_ζ + 3⟨1/G⟩_ζ) / (64⟨1/K⟩_ζ + 21⟨1/G⟩_ζ + 27⟨1/G⟩_η),
 
 (``⟨b⟩_ζ = ζ1 b1 + ζ2 b2``, ``⟨b⟩_η = η1 b1 + η2 b2``), and the energies there are the
-closed forms used by ``three_point_bounds`` (derived with sympy from the coefficients
-below; the lower one is exactly Milton and Phan-Thien's lower bound). Here the
+closed forms used by ``three_point_bounds`` (``examples/derive_mpt_bounds.py`` derives
+them with sympy from the coefficients below; the lower one is exactly Milton and
+Phan-Thien's lower bound). Here the
 energies are minimised numerically over a wide range of ``s`` instead, which is what
 the tests compare with the closed forms.
 
