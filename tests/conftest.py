@@ -1,9 +1,17 @@
 import os
+import signal
 
 import numpy as np
 import pytest
 
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+# A shell without job control starts background jobs (``cmd &``, nohup) with SIGINT ignored, and
+# Python keeps it ignored: the tests that deliver a real Ctrl-C (signal.raise_signal) would then see
+# nothing and fail for a reason that has nothing to do with the code.  Give the test process the
+# handler of an ordinary Python process, the state those tests are about.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture

@@ -77,19 +77,25 @@ def _earliest_collision_2d(x, v, g, box, t, images=2):
     return t + roots[kk], i[kk[0]], j[kk[0]]
 
 
-def test_next_event_agrees_with_brute_force_oracle_2d():
-    """Every collision the 2D kernel processes is the earliest over all pairs and periodic images."""
+@pytest.mark.parametrize("box", [(8.0, 8.0), (8.0, 4.0), (4.0, 8.0)], ids=["square", "wide", "tall"])
+def test_next_event_agrees_with_brute_force_oracle_2d(box):
+    """Every collision the 2D kernel processes is the earliest over all pairs and periodic images.
+
+    Also on non-square boxes (L_x = 2 L_y and L_y = 2 L_x): a kernel that used one axis' length
+    for the other's minimum image misses or invents the collisions across that axis' faces, so
+    the next event time differs from the oracle's (which shares no code with the kernel) far
+    beyond the 1e-9 round-off of the collision roots.
+    """
     rng = np.random.default_rng(5)
     checked = 0
+    box = np.asarray(box, dtype=np.float64)
     for trial in range(3):
         n = 14
-        side = 8.0
-        x = rng.random((n, 2)) * side
+        x = rng.random((n, 2)) * box
         v = rng.normal(size=(n, 2))
         g = 0.05 * rng.uniform(0.5, 1.5, n)
-        box = np.full(2, side)
         state = np.zeros(edmd2d.N_STATE)
-        t_stop = 0.24 * side / g.max()
+        t_stop = 0.24 * box.min() / g.max()
         for step in range(80):
             edmd2d._thermalise(v)
             t = state[edmd2d.S_TIME]
@@ -124,6 +130,38 @@ def test_no_overlap_and_exact_fraction_polydisperse_2d(seed):
     np.testing.assert_array_equal(pk.radii, radii)
     assert pk.volume_fraction == pytest.approx(0.78, rel=1e-9)
     assert pk.volume_fraction == pytest.approx(np.pi * np.sum(radii**2) / np.prod(pk.box), rel=1e-12)
+
+
+def test_pack_in_a_non_square_box_2d():
+    """A 2D pack continued in a periodic box with L_x = 2 L_y keeps the box's proportions and the exact
+    target, and no pair overlaps by the brute-force periodic distance matrix (per-axis minimum image,
+    no polypack code).  Dense (area fraction 0.78) so that many collisions cross the y faces: a kernel
+    that wrapped y with L_x would let those pairs interpenetrate (overlaps of order the disk size,
+    far beyond the -1e-12 round-off allowed) or fail its own final overlap check."""
+    rng = np.random.default_rng(21)
+    box = np.array([24.0, 12.0])
+    n = 240
+    rad = np.where(np.arange(n) < n // 2, 0.25, 0.35)  # dilute start, bidisperse 1 : 1.4
+    sites = np.stack(np.meshgrid(np.arange(24) + 0.5, np.arange(12) + 0.5, indexing="ij"), -1).reshape(-1, 2)
+    pos = sites[rng.choice(len(sites), n, replace=False)] + rng.uniform(-0.1, 0.1, (n, 2))
+    start = pp.Packing(pos, rad, box)
+    assert _no_overlap_oracle(start) > 0
+    pk = pp.pack(start, 0.78, seed=3)
+    assert pk.dim == 2 and pk.meta["status"] == "target"
+    assert pk.volume_fraction == pytest.approx(0.78, rel=1e-9)
+    np.testing.assert_allclose(pk.box / pk.box[1], [2.0, 1.0], rtol=1e-12)
+    np.testing.assert_array_equal(pk.radii, rad)
+    gap = _no_overlap_oracle(pk)
+    assert gap >= -1e-12
+    assert gap < 0.01  # dense: the closest pairs touch to within a percent
+    # the test exercises the y wrap: near pairs (within 5 % of contact) whose minimum image crosses the
+    # y faces exist (measured: 21 pairs; every such pair collided across the faces during the growth)
+    d = pk.positions[:, None, 1] - pk.positions[None, :, 1]
+    across = np.abs(d) > pk.box[1] / 2
+    dist = distance_matrix(pk.positions, pk.box)
+    close = dist < 1.05 * (pk.radii[:, None] + pk.radii[None, :])
+    np.fill_diagonal(close, False)
+    assert np.count_nonzero(close & across) // 2 >= 10
 
 
 def test_dimension_follows_the_size_set_and_is_checked():
