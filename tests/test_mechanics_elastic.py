@@ -276,3 +276,98 @@ def test_agrees_with_the_dem_static_solver(jammed_net):
     other = [static_shear_modulus(jammed_net, 2, 1), static_shear_modulus(jammed_net, 2, 0),
              static_shear_modulus(jammed_net, 1, 0)]
     np.testing.assert_allclose(et.shear_moduli, other, rtol=1e-7)
+
+
+# ---------------------------------------------- factorizations and solver choice
+@pytest.fixture(scope="module")
+def loose_net():
+    """A phi = 0.4 hard-sphere fluid bonded out to Z ~ 4.7 (near-isostatic, many floppy modes)."""
+    from polypack.neighbors import pairs_within
+
+    pk = pp.pack(np.full(300, 0.5), volume_fraction=0.4, seed=5, progress=False)
+    i, j, d = pairs_within(pk.positions, pk.radii, pk.box, a=1.5)
+    gaps = np.sort(d / (pk.radii[i] + pk.radii[j]) - 1.0)
+    return BondNetwork.from_packing(pk, epsilon=float(gaps[int(round(4.7 * pk.n / 2)) - 1]))
+
+
+def _has_pardiso():
+    from polypack.mechanics import elastic as el
+
+    return el._pardiso_module() is not None
+
+
+@pytest.mark.parametrize("which", ["jammed", "loose"])
+def test_pardiso_and_superlu_factorizations_agree(which, jammed_net, loose_net, monkeypatch):
+    """The PARDISO path (one indefinite factorization: inertia count and solve) against the
+    SuperLU one (two factorizations, no pivoting) and block-Jacobi CG: the tensor to 1e-8 of
+    its largest entry (both refine to a 1e-12 residual; near-isostatic networks amplify it by
+    ~1e3), the same floppy-mode count and the same minimum-norm non-affine field (1e-6 in
+    norm: a field with a floppy component left is off by O(1))."""
+    from polypack.mechanics import elastic as el
+
+    if not _has_pardiso():
+        pytest.skip("pypardiso (MKL) is not installed on this platform: only the SuperLU path exists")
+    net = jammed_net if which == "jammed" else loose_net
+    ep = elastic_tensor(net, solver="direct")
+    assert ep.factorization == "pardiso"
+    monkeypatch.setattr(el, "_pardiso_module", lambda: None)
+    es = elastic_tensor(net, solver="direct")
+    assert es.factorization == "superlu"
+    scale = np.abs(es.stiffness).max()
+    np.testing.assert_allclose(ep.stiffness, es.stiffness, rtol=0, atol=1e-8 * scale)
+    ec = elastic_tensor(net, solver="cg", tol=1e-10)
+    np.testing.assert_allclose(ec.stiffness, es.stiffness, rtol=0, atol=1e-7 * scale)
+    assert ep.floppy_modes == es.floppy_modes
+    if which == "loose":
+        assert ep.floppy_modes > 5  # the case the local spin modes are for
+    for a, b in [(ep.nonaffine_displacements, es.nonaffine_displacements),
+                 (ep.nonaffine_rotations, es.nonaffine_rotations)]:
+        assert np.array_equal(np.isnan(a), np.isnan(b))
+        ok = ~np.isnan(b)
+        assert np.linalg.norm(a[ok] - b[ok]) < 1e-6 * np.linalg.norm(b[ok])
+
+
+def test_local_spin_modes_are_floppy(loose_net):
+    """Every unpinned particle with two bonds spins freely about the line through its contact
+    points: h v = 0 to round-off (1e-12 of the largest diagonal entry; a wrong lever arm or
+    rotation scaling leaves O(k_n) forces), unit norm, and no more of them than floppy modes."""
+    from polypack.mechanics import elastic as el
+
+    net = loose_net
+    act = ~net.rattlers
+    idx = np.cumsum(act) - 1
+    on = act[net.i] & act[net.j]
+    n, nd = int(act.sum()), 6
+    bi, bj = idx[net.i[on]], idx[net.j[on]]
+    ell = float(net.packing.radii[act].mean())
+    h, _, _ = el._hessian(n, bi, bj, net.normal_stiffness[on], net.shear_stiffness[on],
+                          np.ascontiguousarray(net.normal[on]), np.ascontiguousarray(net.branch[on]),
+                          np.ascontiguousarray(net.lever_arm_i[on]), np.ascontiguousarray(net.lever_arm_j[on]),
+                          ell, True)
+    keep = np.ones(n * nd, bool)
+    keep[:3] = False
+    hr = h.tocsr()[keep][:, keep]
+    v = el._local_spin_modes(n, nd, keep, bi, bj, net.lever_arm_i[on], net.lever_arm_j[on], ell)
+    deg = np.bincount(np.concatenate([bi, bj]), minlength=n)
+    assert v.shape[1] == int(np.count_nonzero(deg[1:] == 2))  # particle 0 is pinned
+    assert v.shape[1] > 0
+    np.testing.assert_allclose(np.sqrt(np.asarray(v.multiply(v).sum(axis=0))).ravel(), 1.0, atol=1e-12)
+    assert np.abs(hr @ v.toarray()).max() < 1e-12 * hr.diagonal().max()
+    assert v.shape[1] <= elastic_tensor(net, solver="direct").floppy_modes
+
+
+def test_auto_solver_rule(monkeypatch):
+    """solver="auto": the factorization for small systems and (with PARDISO) for near-isostatic
+    ones up to _PARDISO_MAX unknowns; CG / AMG-CG for well-connected or larger networks."""
+    from polypack.mechanics import elastic as el
+
+    monkeypatch.setattr(el, "_pardiso_module", lambda: object())
+    assert el._auto_solver(5000, 6.6, 6) == "direct"
+    assert el._auto_solver(48000, 4.7, 6) == "direct"      # phi = 0.4 gel-like network
+    assert el._auto_solver(48000, 6.6, 6) == "amg"         # jammed pack
+    assert el._auto_solver(12000, 6.6, 6) == "cg"
+    assert el._auto_solver(24000, 2.5, 3) == "direct"      # translations only: isostatic Z = 2
+    assert el._auto_solver(600000, 4.7, 6) == "amg"        # too large to factorize
+    monkeypatch.setattr(el, "_pardiso_module", lambda: None)
+    assert el._auto_solver(48000, 4.7, 6) == "amg"
+    assert el._auto_solver(5000, 4.7, 6) == "direct"
