@@ -554,6 +554,22 @@ def _close_window(t, w_ke, w_vir, w_coll, hist, n_hist, state):
 
 
 @njit(cache=True)
+def _end_chunk(x, v, tl, t, box, state, coll, events, w_vir, w_ke, status):
+    """Close a chunk (3D and 2D alike): every particle synchronised at ``t`` and folded into
+    the box; the chunk's collisions, events, open-window sums ``w_vir`` and ``w_ke`` (its
+    kinetic-energy integral up to ``t``) and ``status`` go into ``state``.
+    """
+    _sync_all(x, v, tl, t)
+    _wrap(x, box)
+    state[S_TIME] = t
+    state[S_COLLISIONS] += coll
+    state[S_EVENTS] += events
+    state[S_VIRIAL] += w_vir
+    state[S_KE_INTEGRAL] += w_ke
+    state[S_STATUS] = status
+
+
+@njit(cache=True)
 def shell_reach(t, t_ref, alpha, dilute):
     """``D(t)``: a shell built at ``t`` has radius ``rho_i = min(g_i D, 0.249 L)``.
 
@@ -836,16 +852,7 @@ def run_chunk(x, v, g, box, state, params, hist):
                 status = JAMMED
                 break
 
-    # leave everything synchronised at t, folded into the box
-    _sync_all(x, v, tl, t)
-    _wrap(x, box)
-    w_ke += ke * (t - t_last)
-    state[S_TIME] = t
-    state[S_COLLISIONS] += coll
-    state[S_EVENTS] += events
-    state[S_VIRIAL] += w_vir
-    state[S_KE_INTEGRAL] += w_ke
-    state[S_STATUS] = status
+    _end_chunk(x, v, tl, t, box, state, coll, events, w_vir, w_ke + ke * (t - t_last), status)
     return status, n_hist
 
 

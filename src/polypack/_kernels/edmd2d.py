@@ -33,8 +33,8 @@ from .edmd import (BOX_LIMIT, CHUNK_DONE, EVENT_BUDGET, INF, JAMMED, N_PARAMS, N
                    P_DILUTE, P_MARGIN_CAP, P_MAX_COLLISIONS, P_MAX_EVENTS, P_MAX_PRESSURE, P_PRESSURE_WINDOW,
                    P_SPEED, P_SYNC_EVERY, P_T_REF, P_T_STOP, REACHED_T_STOP, S_COLLISIONS, S_EVENTS,
                    S_KE_INTEGRAL, S_LOCAL_REBUILDS, S_REBUILDS, S_STATUS, S_TIME, S_VIRIAL, ChunkStatus,
-                   _axis_cell, _close_window, _grid_move, _heap_build, _heap_update, _levels, _shell_radius,
-                   _sync_all, _thermalise, _wrap, exit_time, kinetic_energy,
+                   _axis_cell, _close_window, _end_chunk, _grid_move, _heap_build, _heap_update, _levels,
+                   _shell_radius, _sync_all, _thermalise, _wrap, exit_time, kinetic_energy,
                    make_params, pair_time, shell_reach)
 
 __all__ = ["ChunkStatus", "make_params", "run_chunk", "next_event_brute", "N_STATE", "N_PARAMS"]
@@ -431,15 +431,7 @@ def run_chunk(x, v, g, box, state, params, hist):
                 status = JAMMED
                 break
 
-    _sync_all(x, v, tl, t)
-    _wrap(x, box)
-    w_ke += ke * (t - t_last)
-    state[S_TIME] = t
-    state[S_COLLISIONS] += coll
-    state[S_EVENTS] += events
-    state[S_VIRIAL] += w_vir
-    state[S_KE_INTEGRAL] += w_ke
-    state[S_STATUS] = status
+    _end_chunk(x, v, tl, t, box, state, coll, events, w_vir, w_ke + ke * (t - t_last), status)
     return status, n_hist
 
 
