@@ -306,11 +306,12 @@ def _better(y, x, best_y, best_x, tie):
 
 
 @njit(cache=True)
-def _pair_candidate(i, j, r, pos, rad, width, periodic):
-    """Upper intersection of the dilated circles of ``i`` and ``j``.
+def _dilated_meet(i, j, r, pos, rad, width, periodic):
+    """Where the dilated circles (radii ``r + r_i``, ``r + r_j``) of disks ``i`` and ``j`` meet.
 
-    Returns ``(ok, x, y, left, right)``; ``ok`` is False when the circles do not meet
-    or the point is not between the two centres (no equilibrium on the pair).
+    Returns ``(ok, dx, dy, Ri, Rj, a, h, ux, uy)``: ``(dx, dy)`` from ``i`` to ``j`` (minimum
+    image), ``(ux, uy)`` its unit vector, the two intersections at ``a u +- h u_perp`` from
+    ``i``; ``ok`` is False when the circles do not cross.
     """
     xi = pos[i, 0]
     yi = pos[i, 1]
@@ -320,13 +321,28 @@ def _pair_candidate(i, j, r, pos, rad, width, periodic):
     Rj = r + rad[j]
     d2 = dx * dx + dy * dy
     if d2 >= (Ri + Rj) * (Ri + Rj) or d2 <= (Ri - Rj) * (Ri - Rj) or d2 == 0.0:
-        return False, 0.0, 0.0, -1, -1
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     d = math.sqrt(d2)
     a = (Ri * Ri - Rj * Rj + d2) / (2.0 * d)
     h2 = Ri * Ri - a * a
     h = math.sqrt(h2) if h2 > 0.0 else 0.0
     ux = dx / d
     uy = dy / d
+    return True, dx, dy, Ri, Rj, a, h, ux, uy
+
+
+@njit(cache=True)
+def _pair_candidate(i, j, r, pos, rad, width, periodic):
+    """Upper intersection of the dilated circles of ``i`` and ``j``.
+
+    Returns ``(ok, x, y, left, right)``; ``ok`` is False when the circles do not meet
+    or the point is not between the two centres (no equilibrium on the pair).
+    """
+    ok, dx, dy, Ri, Rj, a, h, ux, uy = _dilated_meet(i, j, r, pos, rad, width, periodic)
+    if not ok:
+        return False, 0.0, 0.0, -1, -1
+    xi = pos[i, 0]
+    yi = pos[i, 1]
     if ux >= 0.0:
         px = a * ux - h * uy
         py = a * uy + h * ux
@@ -354,21 +370,11 @@ def _wedge_candidate(i, j, r, pos, rad, width, periodic, side):
     in equilibrium under gravity: ``(0, 1) = a n_lo + b n_hi`` with ``a, b >= 0`` for the
     unit contact normals.  Returns ``(ok, x, y, lo, hi)``.
     """
+    ok, dx, dy, Ri, Rj, a, h, ux, uy = _dilated_meet(i, j, r, pos, rad, width, periodic)
+    if not ok:
+        return False, 0.0, 0.0, -1, -1
     xi = pos[i, 0]
     yi = pos[i, 1]
-    dx = _mi(pos[j, 0] - xi, width, periodic)
-    dy = pos[j, 1] - yi
-    Ri = r + rad[i]
-    Rj = r + rad[j]
-    d2 = dx * dx + dy * dy
-    if d2 >= (Ri + Rj) * (Ri + Rj) or d2 <= (Ri - Rj) * (Ri - Rj) or d2 == 0.0:
-        return False, 0.0, 0.0, -1, -1
-    d = math.sqrt(d2)
-    a = (Ri * Ri - Rj * Rj + d2) / (2.0 * d)
-    h2 = Ri * Ri - a * a
-    h = math.sqrt(h2) if h2 > 0.0 else 0.0
-    ux = dx / d
-    uy = dy / d
     sg = 1.0 if side == 0 else -1.0
     px = a * ux - sg * h * uy
     py = a * uy + sg * h * ux
@@ -488,6 +494,33 @@ def _floor_centred(r, pos, rad, cid, ns, width, periodic, tol, res):
 
 
 @njit(cache=True)
+def _step(f, off, ns, width, periodic):
+    """Next chain entry after ``f`` and its offset (``+W`` once it wrapped past the end); ``f = -1`` at a wall."""
+    f += 1
+    if f >= ns:
+        if not periodic:
+            return -1, off
+        return 0, width
+    return f, off
+
+
+@njit(cache=True)
+def _admit(x, y, r, i, j, pos, rad, cid, clo, chi, ns, width, periodic, reach, tol, best_y, best_x):
+    """A pocket or wedge ``(x, y)`` on disks ``i``, ``j``: inside the box, better than the best, on the envelope.
+
+    Returns ``(ok, x)`` with ``x`` wrapped into ``[0, W)`` on a periodic axis.
+    """
+    tie = tol * r
+    if periodic:
+        x = _wrap(x, width, periodic)
+    elif x < r - tie or x > width - r + tie:
+        return False, x
+    if not _better(y, x, best_y, best_x, tie):
+        return False, x
+    return _on_envelope(x, y, r, i, j, pos, rad, cid, clo, chi, ns, width, periodic, reach, tol), x
+
+
+@njit(cache=True)
 def _place_one(n, r, pos, rad, cid, clo, chi, ns, width, periodic, rmax, tol, res, floor_rule):
     """Find the position of disk ``n`` (radius ``r``); writes ``res = (x, y)``, returns supports.
 
@@ -602,14 +635,9 @@ def _place_one(n, r, pos, rad, cid, clo, chi, ns, width, periodic, rmax, tol, re
             off = 0.0
             steps = 0
             while True:
-                f += 1
+                f, off = _step(f, off, ns, width, periodic)
                 steps += 1
-                if f >= ns:
-                    if not periodic:
-                        break
-                    f = 0
-                    off = width
-                if steps >= ns:
+                if f < 0 or steps >= ns:
                     break
                 if sweep == 0 and steps > 1:
                     # adjacent distinct disk only
@@ -634,13 +662,8 @@ def _place_one(n, r, pos, rad, cid, clo, chi, ns, width, periodic, rmax, tol, re
                     continue
                 if y < yi - tie or y < pos[j, 1] - tie:
                     continue
-                if periodic:
-                    x = _wrap(x, width, periodic)
-                elif x < r - tie or x > width - r + tie:
-                    continue
-                if not _better(y, x, best_y, best_x, tie):
-                    continue
-                if _on_envelope(x, y, r, i, j, pos, rad, cid, clo, chi, ns, width, periodic, reach, tol):
+                ok, x = _admit(x, y, r, i, j, pos, rad, cid, clo, chi, ns, width, periodic, reach, tol, best_y, best_x)
+                if ok:
                     best_y = y
                     best_x = x
                     s0 = left
@@ -659,14 +682,9 @@ def _place_one(n, r, pos, rad, cid, clo, chi, ns, width, periodic, rmax, tol, re
             foff = 0.0
             fsteps = 0
             while True:
-                f += 1
+                f, foff = _step(f, foff, ns, width, periodic)
                 fsteps += 1
-                if f >= ns:
-                    if not periodic:
-                        break
-                    f = 0
-                    foff = width
-                if fsteps >= ns or clo[f] + foff > limit:
+                if f < 0 or fsteps >= ns or clo[f] + foff > limit:
                     break
                 j = cid[f]
                 if j < 0 or j == i:
@@ -675,13 +693,9 @@ def _place_one(n, r, pos, rad, cid, clo, chi, ns, width, periodic, rmax, tol, re
                     ok, x, y, lo_k, hi_k = _wedge_candidate(i, j, r, pos, rad, width, periodic, side)
                     if not ok or y < r - tie:
                         continue
-                    if periodic:
-                        x = _wrap(x, width, periodic)
-                    elif x < r - tie or x > width - r + tie:
-                        continue
-                    if not _better(y, x, best_y, best_x, tie):
-                        continue
-                    if _on_envelope(x, y, r, i, j, pos, rad, cid, clo, chi, ns, width, periodic, reach, tol):
+                    ok, x = _admit(x, y, r, i, j, pos, rad, cid, clo, chi, ns, width, periodic, reach, tol, best_y,
+                                   best_x)
+                    if ok:
                         best_y = y
                         best_x = x
                         s0 = lo_k

@@ -49,6 +49,19 @@ that there is none below it, is cached until a sphere lands nearby).  The work p
 is proportional to the number of alive spheres (the surface, ~ ``Lx Ly / d^2``), not to
 the number already placed.
 
+Pruning (none of it changes the pack: ``SEARCH_ALL`` turns it off, and the tests compare):
+
+* **Envelope levels**: besides ``cov`` for ``rmin``, the column grid keeps the same bound
+  for ``COVER_LEVELS`` radii ``rho_j`` between ``rmin`` and ``rmax``; a sphere of radius
+  ``r`` uses the highest ``rho_j <= r`` (``U_r >= U_rho_j + (r - rho_j)``, a much tighter
+  bound than from ``rmin``) over the columns within ``r_s + rho_{j+1}`` of the owner.
+* **Height window**: a thresholded search only wants candidates between ``z_s`` and the
+  threshold; a neighbour whose dilated sphere meets the owner's on a circle outside that
+  height range gives none (except on the floor) and is skipped before the pair loops.
+* **Quick rejection**: a candidate is first tested against the owner and the neighbours
+  already gathered for it (with twice the tolerance, so it only rejects what the full
+  envelope test would reject) before the full test over the alive spheres.
+
 Support codes (``support`` array, three per sphere): ``>= 0`` a sphere index, ``FLOOR``,
 ``WALL_X0``, ``WALL_X1``, ``WALL_Y0``, ``WALL_Y1``, ``NO_SUPPORT`` (a periodic seam used by the tie
 rule, not a contact).
@@ -89,7 +102,9 @@ class Deposit3DParam(IntEnum):
     TOL = 4  # relative tolerance of contact tests and of the tie rule
     RMAX = 5  # largest radius
     COLUMN_CELL = 6  # edge of the fine column grid of covered heights
-    N_PARAMS = 7
+    COVER_LEVELS = 7  # radius levels of the envelope bound used to order the searches (0: rmin only)
+    SEARCH_ALL = 8  # 1.0: search every alive sphere in full for every sphere (the test oracle of the pruning)
+    N_PARAMS = 9
 
 
 class Deposit3DState(IntEnum):
@@ -139,6 +154,31 @@ def _cell_of(x, y, h, nx, ny):
 
 
 @njit(cache=True)
+def _window(x, y, reach, hcell, ncx, ncy, per):
+    """Ranges ``(x_lo, x_hi, y_lo, y_hi)`` of coarse cells within ``reach`` of the column ``(x, y)``.
+
+    Indices may run past the grid on a periodic axis (take them modulo ``ncx``, ``ncy``);
+    the whole axis when the window would wrap onto itself, clipped to the grid at walls.
+    """
+    rx = int(math.ceil(reach / hcell[0]))
+    ry = int(math.ceil(reach / hcell[1]))
+    cx, cy = _cell_of(x, y, hcell, ncx, ncy)
+    x_lo, x_hi = cx - rx, cx + rx
+    y_lo, y_hi = cy - ry, cy + ry
+    if per[0]:
+        if 2 * rx + 1 >= ncx:
+            x_lo, x_hi = 0, ncx - 1
+    else:
+        x_lo, x_hi = max(x_lo, 0), min(x_hi, ncx - 1)
+    if per[1]:
+        if 2 * ry + 1 >= ncy:
+            y_lo, y_hi = 0, ncy - 1
+    else:
+        y_lo, y_hi = max(y_lo, 0), min(y_hi, ncy - 1)
+    return x_lo, x_hi, y_lo, y_hi
+
+
+@njit(cache=True)
 def _better(z, x, y, bz, bx, by, tolz):
     """Tie rule: lower by more than ``tolz``, or equal within it and smaller x, then smaller y."""
     if z < bz - tolz:
@@ -170,17 +210,9 @@ def _stable(p, r, s0, s1, s2, pos, L, per, tol, nrm):
             nrm[m, 1] = d1 / dn
             nrm[m, 2] = d2 / dn
             m += 1
-        elif s == WALL_X0:
-            nrm[m, 0] = 1.0
-            m += 1
-        elif s == WALL_X1:
-            nrm[m, 0] = -1.0
-            m += 1
-        elif s == WALL_Y0:
-            nrm[m, 1] = 1.0
-            m += 1
-        elif s == WALL_Y1:
-            nrm[m, 1] = -1.0
+        elif WALL_Y1 <= s <= WALL_X0:
+            # walls push inwards: +x at x = 0 (WALL_X0), -x at x = L (WALL_X1), y alike
+            nrm[m, 0 if s >= WALL_X1 else 1] = 1.0 if (s == WALL_X0 or s == WALL_Y0) else -1.0
             m += 1
     if m < 3:
         return False
@@ -211,52 +243,76 @@ def _admissible(p, r, s0, s1, s2, pos, rad, L, per, tol, strict, head, nxt, hcel
     if not per[1] and (p[1] < r * (1.0 - tol) or p[1] > L[1] - r * (1.0 - tol)):
         return False
     reach = r + rmax
-    rx = int(math.ceil(reach / hcell[0]))
-    ry = int(math.ceil(reach / hcell[1]))
-    cx, cy = _cell_of(p[0], p[1], hcell, ncx, ncy)
-    x_lo, x_hi = cx - rx, cx + rx
-    y_lo, y_hi = cy - ry, cy + ry
-    if per[0]:
-        if 2 * rx + 1 >= ncx:
-            x_lo, x_hi = 0, ncx - 1
-    else:
-        x_lo, x_hi = max(x_lo, 0), min(x_hi, ncx - 1)
-    if per[1]:
-        if 2 * ry + 1 >= ncy:
-            y_lo, y_hi = 0, ncy - 1
-    else:
-        y_lo, y_hi = max(y_lo, 0), min(y_hi, ncy - 1)
+    x_lo, x_hi, y_lo, y_hi = _window(p[0], p[1], reach, hcell, ncx, ncy, per)
     for qx in range(x_lo, x_hi + 1):
         ax = qx % ncx
         for qy in range(y_lo, y_hi + 1):
             ay = qy % ncy
             k = head[ax * ncy + ay]
             while k >= 0:
-                if True:  # supports included: a support touched from below has its cap above p
-                    d0 = _mi(p[0] - pos[k, 0], L[0], per[0])
-                    d1 = _mi(p[1] - pos[k, 1], L[1], per[1])
-                    R = r + rad[k]
-                    h2 = d0 * d0 + d1 * d1
-                    if h2 < R * R:
-                        d2 = p[2] - pos[k, 2]
-                        if strict:
-                            # on or above k's dilated cap: above its centre and outside its sphere
-                            # (squared form: exact at an equator contact, where the cap is vertical);
-                            # a column grazing the dilated footprint (h = R) is free
-                            if h2 < R * R * (1.0 - tol) ** 2 and (d2 < -tol * R or h2 + d2 * d2 < R * R * (1.0 - tol) ** 2):
-                                return False
-                        elif h2 + d2 * d2 < R * R * (1.0 - tol) ** 2:
+                # supports included: a support touched from below has its cap above p
+                d0 = _mi(p[0] - pos[k, 0], L[0], per[0])
+                d1 = _mi(p[1] - pos[k, 1], L[1], per[1])
+                R = r + rad[k]
+                h2 = d0 * d0 + d1 * d1
+                if h2 < R * R:
+                    d2 = p[2] - pos[k, 2]
+                    if strict:
+                        # on or above k's dilated cap: above its centre and outside its sphere
+                        # (squared form: exact at an equator contact, where the cap is vertical);
+                        # a column grazing the dilated footprint (h = R) is free
+                        if h2 < R * R * (1.0 - tol) ** 2 and (d2 < -tol * R or h2 + d2 * d2 < R * R * (1.0 - tol) ** 2):
                             return False
+                    elif h2 + d2 * d2 < R * R * (1.0 - tol) ** 2:
+                        return False
                 k = nxt[k]
     return True
 
 
 @njit(cache=True)
-def _offer(p, r, s0, s1, s2, pos, rad, L, per, tol, strict, head, nxt, hcell, ncx, ncy, rmax, best, bsup, nrm):
-    """Test a candidate; keep it in ``best`` (z, x, y) / ``bsup`` if admissible, stable and better."""
+def _blocked_near(o0, o1, o2, Rs, nb, m, nbh, mh, tol, strict):
+    """Quick rejection of a candidate at ``o`` from the centre of its owner (dilated radius ``Rs``).
+
+    The test of :func:`_admissible` for the owner and the neighbours already gathered around it
+    (``nb``: lower, ``nbh``: higher, vectors from the owner, dilated radii), with twice the
+    tolerance, so that a candidate rejected here is rejected there too (the difference of the two
+    roundings of the vectors is ~1e-16, far below the tolerance).
+    """
+    t2 = (1.0 - 2.0 * tol) ** 2
+    for q in range(-1, m + mh):
+        if q < 0:
+            d0, d1, d2, R = o0, o1, o2, Rs
+        elif q < m:
+            d0, d1, d2, R = o0 - nb[q, 0], o1 - nb[q, 1], o2 - nb[q, 2], nb[q, 3]
+        else:
+            w = q - m
+            d0, d1, d2, R = o0 - nbh[w, 0], o1 - nbh[w, 1], o2 - nbh[w, 2], nbh[w, 3]
+        h2 = d0 * d0 + d1 * d1
+        if strict:
+            if h2 < R * R * t2 and (d2 < -2.0 * tol * R or h2 + d2 * d2 < R * R * t2):
+                return True
+        elif h2 + d2 * d2 < R * R * t2:
+            return True
+    return False
+
+
+@njit(cache=True)
+def _offer(p, r, s0, s1, s2, pos, rad, L, per, tol, strict, head, nxt, hcell, ncx, ncy, rmax, best, bsup, nrm,
+           owner, Rs, nb, m, nbh, mh):
+    """Test a candidate; keep it in ``best`` (z, x, y) / ``bsup`` if admissible, stable and better.
+
+    ``owner`` (a sphere index, or -1) with ``Rs``, ``nb[:m]``, ``nbh[:mh]``: a quick rejection by
+    :func:`_blocked_near` before the full envelope test.
+    """
+    o0 = p[0]
+    o1 = p[1]
+    o2 = p[2]
     p[0] = _wrap(p[0], L[0], per[0])
     p[1] = _wrap(p[1], L[1], per[1])
     if not _better(p[2], p[0], p[1], best[0], best[1], best[2], tol * r):
+        return
+    if owner >= 0 and _blocked_near(o0 - pos[owner, 0], o1 - pos[owner, 1], o2 - pos[owner, 2], Rs, nb, m, nbh, mh,
+                                    tol, strict):
         return
     if not _admissible(p, r, s0, s1, s2, pos, rad, L, per, tol, strict, head, nxt, hcell, ncx, ncy, rmax):
         return
@@ -308,7 +364,7 @@ def _report(code):
 
 @njit(cache=True)
 def _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, nxt, hcell, ncx, ncy, rmax,
-                   best, bsup, nb, nrm, thr, floor_ok):
+                   best, bsup, nb, nrm, thr, floor_ok, nbh):
     """Best candidate owned by alive sphere ``s`` (the highest of its sphere supports), if below ``thr``.
 
     Only candidates lower than ``thr + tol * r`` are examined (``thr = inf``: all); if none
@@ -333,47 +389,70 @@ def _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, n
     Rs = r + rad[s]
     # lower neighbours (z, then index, below s's) that can touch the same new sphere (relative vectors to s)
     reach = rad[s] + rmax + 2.0 * r
-    rx = int(math.ceil(reach / hcell[0]))
-    ry = int(math.ceil(reach / hcell[1]))
-    cx, cy = _cell_of(pos[s, 0], pos[s, 1], hcell, ncx, ncy)
-    x_lo, x_hi = cx - rx, cx + rx
-    y_lo, y_hi = cy - ry, cy + ry
-    if per[0]:
-        if 2 * rx + 1 >= ncx:
-            x_lo, x_hi = 0, ncx - 1
-    else:
-        x_lo, x_hi = max(x_lo, 0), min(x_hi, ncx - 1)
-    if per[1]:
-        if 2 * ry + 1 >= ncy:
-            y_lo, y_hi = 0, ncy - 1
-    else:
-        y_lo, y_hi = max(y_lo, 0), min(y_hi, ncy - 1)
+    x_lo, x_hi, y_lo, y_hi = _window(pos[s, 0], pos[s, 1], reach, hcell, ncx, ncy, per)
     m = 0
+    mh = 0  # higher neighbours: only for the quick rejection of candidates (_blocked_near)
+    own = s if thr < np.inf else -1  # quick rejection and height window: thresholded strict searches only
     for qx in range(x_lo, x_hi + 1):
         ax = qx % ncx
         for qy in range(y_lo, y_hi + 1):
             ay = qy % ncy
             k = head[ax * ncy + ay]
             while k >= 0:
-                if pos[k, 2] < pos[s, 2] or (pos[k, 2] == pos[s, 2] and k < s):
+                lower = pos[k, 2] < pos[s, 2] or (pos[k, 2] == pos[s, 2] and k < s)
+                if k != s:
                     d0 = _mi(pos[k, 0] - pos[s, 0], L[0], per[0])
                     d1 = _mi(pos[k, 1] - pos[s, 1], L[1], per[1])
                     d2 = pos[k, 2] - pos[s, 2]
                     lim = Rs + r + rad[k]
                     if d0 * d0 + d1 * d1 + d2 * d2 <= lim * lim:
-                        if m < nb.shape[0]:
+                        if lower:
                             nb[m, 0] = d0
                             nb[m, 1] = d1
                             nb[m, 2] = d2
                             nb[m, 3] = r + rad[k]
                             nb[m, 4] = k
+                            nb[m, 5] = 1.0
                             m += 1
+                        else:
+                            nbh[mh, 0] = d0
+                            nbh[mh, 1] = d1
+                            nbh[mh, 2] = d2
+                            nbh[mh, 3] = r + rad[k]
+                            mh += 1
                 k = nxt[k]
     sx = pos[s, 0]
     sy = pos[s, 1]
     sz = pos[s, 2]
+    if strict and thr < np.inf:
+        # height window of a strict candidate owned by s: on the envelope, hence not below s's centre
+        # (by more than the grazing slack of the admissibility test), and below the threshold
+        # (within the tie tolerance).  A candidate on s and neighbour a lies on the circle where
+        # their dilated spheres meet: a neighbour whose circle misses the window gives no
+        # candidate with s except on the floor (marked nb[a, 5] = 0).
+        zlo = sz - 4.0 * math.sqrt(tol) * Rs
+        zhi = thr + 4.0 * tol * r
+        for a in range(m):
+            d2a = nb[a, 0] * nb[a, 0] + nb[a, 1] * nb[a, 1] + nb[a, 2] * nb[a, 2]
+            Ra = nb[a, 3]
+            if d2a <= 0.0:
+                continue
+            da = math.sqrt(d2a)
+            u = (Rs * Rs - Ra * Ra + d2a) / (2.0 * da)
+            rho2 = Rs * Rs - u * u
+            slack = 1e-9 * (Rs + Ra)
+            if rho2 < -slack * Rs:
+                nb[a, 5] = 0.0
+                continue
+            ez = nb[a, 2] / da
+            half = math.sqrt(max(rho2, 0.0) * max(1.0 - ez * ez, 0.0))
+            zc = sz + u * ez
+            if zc + half < zlo - slack or zc - half > zhi + slack:
+                nb[a, 5] = 0.0
     # --- three spheres: s, j, k
     for a in range(m):
+        if nb[a, 5] == 0.0:
+            continue
         ax_ = nb[a, 0]
         ay_ = nb[a, 1]
         az_ = nb[a, 2]
@@ -383,6 +462,8 @@ def _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, n
             continue
         ex0, ex1, ex2 = ax_ / d, ay_ / d, az_ / d
         for b in range(a + 1, m):
+            if nb[b, 5] == 0.0:
+                continue
             bx_ = nb[b, 0]
             by_ = nb[b, 1]
             bz_ = nb[b, 2]
@@ -409,7 +490,7 @@ def _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, n
                 p[1] = sy + u * ex1 + v * ey1 + sg * w * ez1
                 p[2] = sz + u * ex2 + v * ey2 + sg * w * ez2
                 _offer(p, r, s, int(nb[a, 4]), int(nb[b, 4]), pos, rad, L, per, tol, strict, head, nxt, hcell,
-                       ncx, ncy, rmax, best, bsup, nrm)
+                       ncx, ncy, rmax, best, bsup, nrm, own, Rs, nb, m, nbh, mh)
                 if w == 0.0:
                     break
     # --- two spheres and a plane: s, j, plane
@@ -438,6 +519,8 @@ def _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, n
         if rho_s2 < 0.0:
             continue
         for a in range(m):
+            if code != FLOOR and nb[a, 5] == 0.0:
+                continue
             rel[0] = nb[a, 0]
             rel[1] = nb[a, 1]
             rel[2] = nb[a, 2]
@@ -469,7 +552,7 @@ def _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, n
                 p[1] = sy + off[1]
                 p[2] = sz + off[2]
                 _offer(p, r, sup_s, sup_a, code, pos, rad, L, per, tol, strict, head, nxt, hcell,
-                       ncx, ncy, rmax, best, bsup, nrm)
+                       ncx, ncy, rmax, best, bsup, nrm, own, Rs, nb, m, nbh, mh)
                 if hh == 0.0:
                     break
     # --- one sphere and two planes: s, plane, plane
@@ -512,7 +595,7 @@ def _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, n
                 p[1] = sy + off[1]
                 p[2] = sz + off[2]
                 _offer(p, r, sup_s, planes[q1], planes[q2], pos, rad, L, per, tol, strict, head, nxt, hcell,
-                       ncx, ncy, rmax, best, bsup, nrm)
+                       ncx, ncy, rmax, best, bsup, nrm, own, Rs, nb, m, nbh, mh)
                 if rt == 0.0:
                     break
 
@@ -537,7 +620,7 @@ def _global_candidates(r, pos, rad, L, per, tol, strict, planes, nplanes, head, 
                 p[a2] = v2
                 p[a3] = v3
                 _offer(p, r, planes[q1], planes[q2], planes[q3], pos, rad, L, per, tol, strict, head, nxt,
-                       hcell, ncx, ncy, rmax, best, bsup, nrm)
+                       hcell, ncx, ncy, rmax, best, bsup, nrm, -1, 0.0, nrm, 0, nrm, 0)
 
 
 @njit(cache=True)
@@ -636,6 +719,97 @@ def _min_cover(k, pos, rad, cov, hc, mx, my, L, per, rmax):
 
 
 @njit(cache=True)
+def _level_radii(rmin, rmax, nlev):
+    """Radii ``rho_j = rmin + j (rmax - rmin) / nlev`` of the envelope-bound levels and their reaches.
+
+    A sphere of radius ``r`` uses the highest level with ``rho_j <= r`` (:func:`_level_of`);
+    its candidates lie within ``r_s + r`` of their owner ``s``, at most ``r_s + reach_j``
+    with ``reach_j = rho_{j+1}`` (``rmax`` for the top level).
+    """
+    rho = np.empty(max(nlev, 1))
+    reach = np.empty(max(nlev, 1))
+    for j in range(nlev):
+        rho[j] = rmin + (rmax - rmin) * j / nlev
+    for j in range(nlev):
+        reach[j] = rho[j + 1] if j + 1 < nlev else rmax
+    return rho, reach
+
+
+@njit(cache=True)
+def _level_of(r, rho, nlev):
+    """Highest level ``j`` with ``rho_j <= r`` (``rho_0 = rmin <= r`` always)."""
+    j = nlev - 1
+    while j > 0 and rho[j] > r:
+        j -= 1
+    return j
+
+
+@njit(cache=True)
+def _cover_levels(p, r, covl, rho, nlev, hc, mx, my, L, per):
+    """:func:`_cover` for every level at once: ``covl[c * nlev + j]`` bounds ``U_{rho_j}`` on cell ``c``."""
+    R = r + rho[nlev - 1] * (1.0 - 1e-9)
+    rx = int(math.ceil(R / hc[0])) + 1
+    ry = int(math.ceil(R / hc[1])) + 1
+    cx = int(p[0] / hc[0])
+    cy = int(p[1] / hc[1])
+    for qx in range(cx - rx, cx + rx + 1):
+        if not per[0] and (qx < 0 or qx >= mx):
+            continue
+        ax = qx % mx
+        dx = abs(_mi((ax + 0.5) * hc[0] - p[0], L[0], per[0])) + 0.5 * hc[0]
+        if dx >= R:
+            continue
+        for qy in range(cy - ry, cy + ry + 1):
+            if not per[1] and (qy < 0 or qy >= my):
+                continue
+            ay = qy % my
+            dy = abs(_mi((ay + 0.5) * hc[1] - p[1], L[1], per[1])) + 0.5 * hc[1]
+            f2 = dx * dx + dy * dy
+            c = (ax * my + ay) * nlev
+            for j in range(nlev):
+                Rj = r + rho[j] * (1.0 - 1e-9)
+                if f2 < Rj * Rj:
+                    v = p[2] + math.sqrt(Rj * Rj - f2) * (1.0 - 1e-12)
+                    if v > covl[c + j]:
+                        covl[c + j] = v
+
+
+@njit(cache=True)
+def _min_cover_levels(k, pos, rad, covl, reach, nlev, hc, mx, my, L, per, out):
+    """:func:`_min_cover` for every level: ``out[j]`` = smallest ``covl`` level ``j`` within ``r_k + reach_j``.
+
+    A candidate owned by ``k`` for a sphere of radius ``r`` at level ``j`` lies on one of these
+    columns, on the envelope ``U_r >= U_{rho_j} + (r - rho_j)``, so ``out[j] + r - rho_j``
+    bounds its height from below.
+    """
+    for j in range(nlev):
+        out[j] = np.inf
+    R = rad[k] + reach[nlev - 1]
+    rx = int(math.ceil(R / hc[0])) + 1
+    ry = int(math.ceil(R / hc[1])) + 1
+    cx = int(pos[k, 0] / hc[0])
+    cy = int(pos[k, 1] / hc[1])
+    for qx in range(cx - rx, cx + rx + 1):
+        if not per[0] and (qx < 0 or qx >= mx):
+            continue
+        ax = qx % mx
+        dx = max(abs(_mi((ax + 0.5) * hc[0] - pos[k, 0], L[0], per[0])) - 0.5 * hc[0], 0.0)
+        if dx > R:
+            continue
+        for qy in range(cy - ry, cy + ry + 1):
+            if not per[1] and (qy < 0 or qy >= my):
+                continue
+            ay = qy % my
+            dy = max(abs(_mi((ay + 0.5) * hc[1] - pos[k, 1], L[1], per[1])) - 0.5 * hc[1], 0.0)
+            f2 = dx * dx + dy * dy
+            c = (ax * my + ay) * nlev
+            for j in range(nlev):
+                Rj = rad[k] + reach[j]
+                if f2 <= Rj * Rj and covl[c + j] < out[j]:
+                    out[j] = covl[c + j]
+
+
+@njit(cache=True)
 def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_i, cov):
     """Place spheres ``start .. stop-1`` (radii ``rad``, in order) on the deposit of spheres ``0 .. start-1``.
 
@@ -653,18 +827,20 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
         Slots of :class:`Deposit3DState`.
     start, stop : int
         Range to place (chunks let the caller show progress and stop on Ctrl-C).
-    work_f : (N, 6) float64, in/out
+    work_f : (N, 6 + COVER_LEVELS) float64, in/out
         Per-sphere cache: best owned candidate ``z, x, y`` (``z = inf``: none below the
         threshold of the search), the radius it is for, the envelope bound of
         :func:`_min_cover` (radius-independent), and the cached lower bound for that radius
         (the best height, or the search threshold when none was found).  The spheres are
         searched in the order of a lower bound on their owned candidates (the envelope
         bound plus ``r - rmin``, ``z_s`` where no floor position is near, the cached
-        bound), and the search stops once it exceeds the best height found.
+        bound), and the search stops once it exceeds the best height found.  Columns
+        ``6 ..``: the envelope bound of every level (:func:`_min_cover_levels`).
     work_i : (N + ncx * ncy + N, ...) int64, in/out
         Packed integer state: see :func:`make_work`.
-    cov : (mx * my,) float64, in/out
-        Covered-height lower bound of the fine column grid.
+    cov : (mx * my * (1 + COVER_LEVELS),) float64, in/out
+        Covered-height lower bound of the fine column grid: ``rmin`` first, then the levels
+        interleaved per cell (``[mx * my + c * COVER_LEVELS + j]``).
 
     Returns
     -------
@@ -688,6 +864,13 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
     mx = max(1, int(L[0] // hcol))
     my = max(1, int(L[1] // hcol))
     hc = np.array([L[0] / mx, L[1] / my])
+    nlev = int(params[Deposit3DParam.COVER_LEVELS])
+    search_all = params[Deposit3DParam.SEARCH_ALL] > 0.5
+    rho, lreach = _level_radii(rmin, rmax, nlev)
+    cov0 = cov[:mx * my]
+    covl = cov[mx * my:]
+    # envelope-bound margin: a strict candidate may sit below a grazed cap by ~ sqrt(2 tol) R
+    lmargin = 2.0 * math.sqrt(tol) * (2.0 * rmax) + tol * rmax
     # integer work layout: head (ncx*ncy) | nxt (n) | prv (n) | cell (n) | alive_list (n) | alive_pos (n)
     #                      | bsup (3n) | n_alive (1)
     o_head = 0
@@ -710,30 +893,26 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
     nplanes = 0
     planes[nplanes] = FLOOR
     nplanes += 1
-    if per[0]:
-        planes[nplanes] = _SEAM_X
-        nplanes += 1
-    else:
-        planes[nplanes] = WALL_X0
-        planes[nplanes + 1] = WALL_X1
-        nplanes += 2
-    if per[1]:
-        planes[nplanes] = _SEAM_Y
-        nplanes += 1
-    else:
-        planes[nplanes] = WALL_Y0
-        planes[nplanes + 1] = WALL_Y1
-        nplanes += 2
+    for a in range(2):  # x then y: a periodic seam, or the two walls
+        if per[a]:
+            planes[nplanes] = _SEAM_X if a == 0 else _SEAM_Y
+            nplanes += 1
+        else:
+            planes[nplanes] = WALL_X0 if a == 0 else WALL_Y0
+            planes[nplanes + 1] = WALL_X1 if a == 0 else WALL_Y1
+            nplanes += 2
     best = np.empty(3)
     bsup = np.empty(3, np.int64)
     gbest = np.empty(3)
     gsup = np.empty(3, np.int64)
-    nb = np.empty((max(n, 16), 5))
+    nb = np.empty((max(n, 16), 6))
+    nbh = np.empty((max(n, 16), 4))
     nrm = np.zeros((3, 3))
     p = np.empty(3)
     status = 0
     for i in range(start, stop):
         r = rad[i]
+        lev = _level_of(r, rho, nlev) if nlev > 0 else 0
         gbest[0] = np.inf
         gbest[1] = np.inf
         gbest[2] = np.inf
@@ -746,6 +925,11 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
                 for q in range(n_alive):
                     s = alive[q]
                     lb = work_f[s, 4] + (r - rmin)
+                    if nlev > 0:
+                        # the bound at the level of r: U_r >= U_rho + (r - rho) near s
+                        lbl = work_f[s, 6 + lev] + (r - rho[lev]) - lmargin
+                        if lbl > lb:
+                            lb = lbl
                     if work_f[s, 4] > rmin + tol * rmin:
                         # no floor position near s: every owned candidate is at or above z_s
                         zb = pos[s, 2] - 2.0 * math.sqrt(tol) * (r + rad[s])
@@ -759,9 +943,9 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
                 order = np.arange(n_alive)
             for qq in range(n_alive):
                 s = alive[order[qq]]
-                if strict and keys[order[qq]] > gbest[0] + tol * r:
+                if strict and not search_all and keys[order[qq]] > gbest[0] + tol * r:
                     break  # every remaining candidate lies above the best one
-                if strict and work_f[s, 3] == r and work_f[s, 0] < np.inf:
+                if strict and not search_all and work_f[s, 3] == r and work_f[s, 0] < np.inf:
                     best[0] = work_f[s, 0]
                     best[1] = work_f[s, 1]
                     best[2] = work_f[s, 2]
@@ -769,10 +953,10 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
                     bsup[1] = bsup_all[s, 1]
                     bsup[2] = bsup_all[s, 2]
                 else:
-                    thr = gbest[0] + tol * r if strict else np.inf
-                    floor_ok = (not strict) or work_f[s, 4] <= rmin + tol * rmin
+                    thr = gbest[0] + tol * r if strict and not search_all else np.inf
+                    floor_ok = (not strict) or search_all or work_f[s, 4] <= rmin + tol * rmin
                     _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, nxt, hcell, ncx,
-                                   ncy, rmax, best, bsup, nb, nrm, thr, floor_ok)
+                                   ncy, rmax, best, bsup, nb, nrm, thr, floor_ok, nbh)
                     state[Deposit3DState.N_RECOMPUTED] += 1
                     if strict:
                         work_f[s, 3] = r
@@ -812,7 +996,9 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
         p[0] = pos[i, 0]
         p[1] = pos[i, 1]
         p[2] = pos[i, 2]
-        _cover(p, r, cov, hc, mx, my, L, per, rmin)
+        _cover(p, r, cov0, hc, mx, my, L, per, rmin)
+        if nlev > 0:
+            _cover_levels(p, r, covl, rho, nlev, hc, mx, my, L, per)
         cx, cy = _cell_of(p[0], p[1], hcell, ncx, ncy)
         _link(i, cx * ncy + cy, head, nxt, prv, cell)
         alive[n_alive] = i
@@ -820,20 +1006,8 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
         n_alive += 1
         work_f[i, 3] = -1.0
         reach = r + 3.0 * rmax
-        rx = int(math.ceil(reach / hcell[0]))
-        ry = int(math.ceil(reach / hcell[1]))
-        x_lo, x_hi = cx - rx, cx + rx
-        y_lo, y_hi = cy - ry, cy + ry
-        if per[0]:
-            if 2 * rx + 1 >= ncx:
-                x_lo, x_hi = 0, ncx - 1
-        else:
-            x_lo, x_hi = max(x_lo, 0), min(x_hi, ncx - 1)
-        if per[1]:
-            if 2 * ry + 1 >= ncy:
-                y_lo, y_hi = 0, ncy - 1
-        else:
-            y_lo, y_hi = max(y_lo, 0), min(y_hi, ncy - 1)
+        reach_cov = r + 2.0 * rmax + 1.5 * (hc[0] + hc[1])
+        x_lo, x_hi, y_lo, y_hi = _window(p[0], p[1], reach, hcell, ncx, ncy, per)
         for qx in range(x_lo, x_hi + 1):
             ax = qx % ncx
             for qy in range(y_lo, y_hi + 1):
@@ -843,10 +1017,16 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
                     k_next = nxt[k]
                     d0 = _mi(pos[k, 0] - p[0], L[0], per[0])
                     d1 = _mi(pos[k, 1] - p[1], L[1], per[1])
-                    if d0 * d0 + d1 * d1 <= (rad[k] + reach) ** 2:
+                    h2 = d0 * d0 + d1 * d1
+                    if h2 <= (rad[k] + reach) ** 2:
                         work_f[k, 3] = -1.0  # cache invalid
-                        low = _min_cover(k, pos, rad, cov, hc, mx, my, L, per, rmax)
+                    # the cells raised by _cover lie within r + rmax of p; k's bounds read the cells
+                    # within r_k + rmax of k: elsewhere they are unchanged
+                    if h2 <= (rad[k] + reach_cov) ** 2:
+                        low = _min_cover(k, pos, rad, cov0, hc, mx, my, L, per, rmax)
                         work_f[k, 4] = low
+                        if nlev > 0:
+                            _min_cover_levels(k, pos, rad, covl, lreach, nlev, hc, mx, my, L, per, work_f[k, 6:])
                         if low > pos[k, 2] + rad[k] + rmin:
                             _unlink(k, head, nxt, prv, cell)
                             q = apos[k]
@@ -863,16 +1043,19 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
     return status
 
 
-def make_work(n, lx, ly, rmax, column_cell):
-    """Work arrays of :func:`deposit_spheres` for ``n`` spheres: ``(work_f, work_i, cov)``."""
+def make_work(n, lx, ly, rmax, column_cell, levels=0):
+    """Work arrays of :func:`deposit_spheres` for ``n`` spheres: ``(work_f, work_i, cov)``.
+
+    ``levels`` must equal ``params[COVER_LEVELS]``.
+    """
     ncx = max(1, int(lx // (2.0 * rmax)))
     ncy = max(1, int(ly // (2.0 * rmax)))
     mx = max(1, int(lx // column_cell))
     my = max(1, int(ly // column_cell))
-    work_f = np.full((n, 6), -1.0)
+    work_f = np.full((n, 6 + levels), -1.0)
     work_i = np.full(ncx * ncy + 8 * n + 1, -1, np.int64)
     work_i[-1] = 0
-    cov = np.zeros(mx * my)
+    cov = np.zeros(mx * my * (1 + levels))
     return work_f, work_i, cov
 
 
@@ -880,9 +1063,9 @@ def warmup():
     """Compile the kernel on a tiny input."""
     n = 30
     rad = np.full(n, 0.5)
-    params = np.array([5.0, 5.0, 1.0, 0.0, 1e-10, 0.5, 0.25])
+    params = np.array([5.0, 5.0, 1.0, 0.0, 1e-10, 0.5, 0.25, 4.0, 0.0])
     pos = np.zeros((n, 3))
     support = np.zeros((n, 3), np.int64)
     state = np.zeros(Deposit3DState.N_STATE)
-    work_f, work_i, cov = make_work(n, 5.0, 5.0, 0.5, 0.25)
+    work_f, work_i, cov = make_work(n, 5.0, 5.0, 0.5, 0.25, 4)
     deposit_spheres(rad, params, pos, support, state, 0, n, work_f, work_i, cov)

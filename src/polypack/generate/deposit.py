@@ -160,7 +160,8 @@ def _floor_rule_code(floor_rule):
     return codes[floor_rule]
 
 
-def deposit_arrays_3d(radii, width, periodic=True, tolerance=DEFAULT_TOLERANCE, progress=None):
+def deposit_arrays_3d(radii, width, periodic=True, tolerance=DEFAULT_TOLERANCE, progress=None, cover_levels=8,
+                      search_all=False):
     """Deposit spheres of the given radii **in the given order** (3D); plain arrays in and out.
 
     Parameters
@@ -175,6 +176,13 @@ def deposit_arrays_3d(radii, width, periodic=True, tolerance=DEFAULT_TOLERANCE, 
         Relative tolerance of the contact tests and of the tie rule.
     progress : bool, optional
         Progress bar (default: only on a terminal).
+    cover_levels : int
+        Radius levels of the envelope bound that orders the per-sphere searches (``Deposit3DParam.COVER_LEVELS``;
+        0 keeps only the smallest radius). A speed setting: the pack does not depend on it.
+    search_all : bool
+        Search every alive sphere in full for every new sphere, without the lower bounds, thresholds,
+        caches and quick rejections that prune the search (``Deposit3DParam.SEARCH_ALL``): the same pack,
+        much slower; the oracle of the pruning in the tests.
 
     Returns
     -------
@@ -202,10 +210,13 @@ def deposit_arrays_3d(radii, width, periodic=True, tolerance=DEFAULT_TOLERANCE, 
     params[k3.Deposit3DParam.TOL] = tolerance
     params[k3.Deposit3DParam.RMAX] = rmax
     params[k3.Deposit3DParam.COLUMN_CELL] = col
+    levels = int(cover_levels) if rad.max() > rad.min() else 0
+    params[k3.Deposit3DParam.COVER_LEVELS] = levels
+    params[k3.Deposit3DParam.SEARCH_ALL] = 1.0 if search_all else 0.0
     pos = np.zeros((n, 3))
     support = np.zeros((n, 3), dtype=np.int64)
     state = np.zeros(int(k3.Deposit3DState.N_STATE))
-    work_f, work_i, cov = k3.make_work(n, lx, ly, rmax, col)
+    work_f, work_i, cov = k3.make_work(n, lx, ly, rmax, col, levels)
     chunk = 500
     with _interrupt.deferred(), progress_bar(total=n, desc="deposit", progress=progress, unit="sphere") as bar:
         k = 0
