@@ -13,7 +13,8 @@ with ``F`` the total force in units of ``kT/a``, followed by constraint projecti
   ``P_CAP_DRIFT > 0`` an *attractive* pair force is capped so that it closes at most
   ``P_CAP_DRIFT`` of the gap ``h`` in one step (the deep inner side of a DLVO well is
   not resolvable with Brownian steps; the cap makes the pair approach contact
-  geometrically instead of jumping through it).
+  geometrically instead of jumping through it).  One helper, :func:`_pair_force`, inside one pair loop,
+  :func:`_dlvo_forces`, serves all three kernels.
 * Bonds (``P_BOND_WIDTH >= 0``): after each step, Gauss–Seidel sweeps over the
   Verlet pairs (at most ``P_SWEEPS``, until the largest correction is below
   ``P_PROJ_TOL``) bond every unbonded pair with ``h < P_BOND_WIDTH`` (capture into the
@@ -236,6 +237,112 @@ def _project(pos, box, params, state, istate, pi, pj, flag, bonds, adj, deg):
 
 
 @njit(cache=True)
+def _pair_force(h, table, lo, inv_dh, cap_drift, dt):
+    """Central DLVO pair force (kT/a, positive = repulsive) at surface separation ``h``.
+
+    Linear interpolation of ``table`` on the grid ``lo + k / inv_dh`` (clamped at both
+    ends); with ``cap_drift > 0`` an attraction is capped so that the pair's gap closes
+    by at most ``cap_drift * h`` in one step of length ``dt`` (module docstring).
+    """
+    ntab = table.shape[0]
+    t = (h - lo) * inv_dh
+    if t <= 0.0:
+        f = table[0]
+    elif t >= ntab - 1:
+        f = table[ntab - 1]
+    else:
+        q = int(t)
+        w = t - q
+        f = (1.0 - w) * table[q] + w * table[q + 1]
+    if cap_drift > 0.0 and f < 0.0 and dt > 0.0:
+        # both spheres move by |f| dt: the gap closes by 2 |f| dt at most cap_drift * h
+        fmax = cap_drift * max(h, 0.0) / (2.0 * dt)
+        if -f > fmax:
+            f = -fmax
+    return f
+
+
+@njit(cache=True)
+def _dlvo_forces(pos, box, params, pi, pj, flag, table, force, lab, skip_internal):
+    """Add the tabulated central pair force of every unbonded listed pair to ``force``; returns sum r F.
+
+    ``skip_internal``: pairs inside one rigid cluster (``lab``, see :func:`_internal`) are
+    skipped (their forces cancel in the cluster's force and torque); ``lab`` is unused
+    otherwise.
+    """
+    dt = params[P_DT]
+    rc2 = params[P_R_CUT] * params[P_R_CUT]
+    cap_drift = params[P_CAP_DRIFT]
+    lo = params[P_TAB_LO]
+    inv_dh = 1.0 / params[P_TAB_DH]
+    vir = 0.0
+    for k in range(pi.shape[0]):
+        if flag[k]:
+            continue
+        i = pi[k]
+        j = pj[k]
+        if skip_internal and _internal(pos, box, i, j, lab):
+            continue
+        dx = min_image(pos[j, 0] - pos[i, 0], box[0])
+        dy = min_image(pos[j, 1] - pos[i, 1], box[1])
+        dz = min_image(pos[j, 2] - pos[i, 2], box[2])
+        r2 = dx * dx + dy * dy + dz * dz
+        if r2 >= rc2:
+            continue
+        r = np.sqrt(r2)
+        f = _pair_force(r - 2.0, table, lo, inv_dh, cap_drift, dt)
+        vir += f * r
+        fr = f / r
+        force[i, 0] -= fr * dx
+        force[i, 1] -= fr * dy
+        force[i, 2] -= fr * dz
+        force[j, 0] += fr * dx
+        force[j, 1] += fr * dy
+        force[j, 2] += fr * dz
+    return vir
+
+
+@njit(cache=True)
+def _trap_forces(pos, box, ktrap, force):
+    """Add the harmonic trap ``-ktrap (x - L/2)`` per coordinate (minimum image) to ``force``."""
+    cx = 0.5 * box[0]
+    cy = 0.5 * box[1]
+    cz = 0.5 * box[2]
+    for i in range(pos.shape[0]):
+        force[i, 0] -= ktrap * min_image(pos[i, 0] - cx, box[0])
+        force[i, 1] -= ktrap * min_image(pos[i, 1] - cy, box[1])
+        force[i, 2] -= ktrap * min_image(pos[i, 2] - cz, box[2])
+
+
+@njit(cache=True)
+def _max_displacement2(pos, ref, box, periodic_image):
+    """Largest squared displacement since the last list build (minimum image if ``periodic_image``)."""
+    maxd2 = 0.0
+    for i in range(pos.shape[0]):
+        d2 = 0.0
+        for c in range(3):
+            e = pos[i, c] - ref[i, c]
+            if periodic_image:
+                e = min_image(e, box[c])
+            d2 += e * e
+        if d2 > maxd2:
+            maxd2 = d2
+    return maxd2
+
+
+@njit(cache=True)
+def _internal(pos, box, i, j, lab):
+    """True if i and j are in one cluster and see each other at their stored (unwrapped) image."""
+    if lab[i] != lab[j]:
+        return False
+    for c in range(3):
+        d = pos[j, c] - pos[i, c]
+        if abs(d - min_image(d, box[c])) > 0.5 * box[c]:
+            return False
+    return True
+
+
+@njit(cache=True)
 def run(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rng, nsteps):
     """Advance ``nsteps`` Ermak–McCammon steps in place.
 
@@ -270,14 +377,7 @@ def run(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rng, nst
     rc2 = params[P_R_CUT] * params[P_R_CUT]
     half_skin2 = 0.25 * params[P_SKIN] * params[P_SKIN]
     bonding = params[P_BOND_WIDTH] >= 0.0
-    cap_drift = params[P_CAP_DRIFT]
-    lo = params[P_TAB_LO]
-    inv_dh = 1.0 / params[P_TAB_DH]
-    ntab = table.shape[0]
     ktrap = params[P_TRAP_K]
-    cx = 0.5 * box[0]
-    cy = 0.5 * box[1]
-    cz = 0.5 * box[2]
 
     pi, pj, flag = _build(pos, box, params, adj, deg, ncell)
     ref = pos.copy()
@@ -287,47 +387,9 @@ def run(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rng, nst
             force[i, 0] = 0.0
             force[i, 1] = 0.0
             force[i, 2] = 0.0
-        vir = 0.0
-        for k in range(pi.shape[0]):
-            if flag[k]:
-                continue
-            i = pi[k]
-            j = pj[k]
-            dx = min_image(pos[j, 0] - pos[i, 0], box[0])
-            dy = min_image(pos[j, 1] - pos[i, 1], box[1])
-            dz = min_image(pos[j, 2] - pos[i, 2], box[2])
-            r2 = dx * dx + dy * dy + dz * dz
-            if r2 >= rc2:
-                continue
-            r = np.sqrt(r2)
-            h = r - 2.0
-            t = (h - lo) * inv_dh
-            if t <= 0.0:
-                f = table[0]
-            elif t >= ntab - 1:
-                f = table[ntab - 1]
-            else:
-                q = int(t)
-                w = t - q
-                f = (1.0 - w) * table[q] + w * table[q + 1]
-            if cap_drift > 0.0 and f < 0.0 and dt > 0.0:
-                # both spheres move by |f| dt: the gap closes by 2 |f| dt at most cap_drift * h
-                fmax = cap_drift * max(h, 0.0) / (2.0 * dt)
-                if -f > fmax:
-                    f = -fmax
-            vir += f * r
-            fr = f / r
-            force[i, 0] -= fr * dx
-            force[i, 1] -= fr * dy
-            force[i, 2] -= fr * dz
-            force[j, 0] += fr * dx
-            force[j, 1] += fr * dy
-            force[j, 2] += fr * dz
+        vir = _dlvo_forces(pos, box, params, pi, pj, flag, table, force, deg, False)
         if ktrap != 0.0:
-            for i in range(n):
-                force[i, 0] -= ktrap * min_image(pos[i, 0] - cx, box[0])
-                force[i, 1] -= ktrap * min_image(pos[i, 1] - cy, box[1])
-                force[i, 2] -= ktrap * min_image(pos[i, 2] - cz, box[2])
+            _trap_forces(pos, box, ktrap, force)
         state[S_VIRIAL] += vir
         state[S_VIRIAL_STEPS] += 1.0
         for i in range(n):
@@ -342,14 +404,7 @@ def run(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rng, nst
                 return status
         state[S_TIME] += dt
         istate[I_STEPS] += 1
-        maxd2 = 0.0
-        for i in range(n):
-            d2 = 0.0
-            for c in range(3):
-                e = pos[i, c] - ref[i, c]
-                d2 += e * e
-            if d2 > maxd2:
-                maxd2 = d2
+        maxd2 = _max_displacement2(pos, ref, box, False)
         if maxd2 > half_skin2 and rc2 > 0.0:
             pi, pj, flag = _build(pos, box, params, adj, deg, ncell)
             for i in range(n):
@@ -570,18 +625,6 @@ def _merge(pos, box, i, j, lab, nxt, head, tail, csize, frozen):
     tail[move] = -1
     csize[move] = 0
     frozen[move] = 0
-
-
-@njit(cache=True)
-def _internal(pos, box, i, j, lab):
-    """True if i and j are in one cluster and see each other at their stored (unwrapped) image."""
-    if lab[i] != lab[j]:
-        return False
-    for c in range(3):
-        d = pos[j, c] - pos[i, c]
-        if abs(d - min_image(d, box[c])) > 0.5 * box[c]:
-            return False
-    return True
 
 
 @njit(cache=True)
@@ -816,14 +859,7 @@ def run_rigid(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rn
     dt = params[P_DT]
     rc2 = params[P_R_CUT] * params[P_R_CUT]
     half_skin2 = 0.25 * params[P_SKIN] * params[P_SKIN]
-    cap_drift = params[P_CAP_DRIFT]
-    lo = params[P_TAB_LO]
-    inv_dh = 1.0 / params[P_TAB_DH]
-    ntab = table.shape[0]
     ktrap = params[P_TRAP_K]
-    cx = 0.5 * box[0]
-    cy = 0.5 * box[1]
-    cz = 0.5 * box[2]
 
     pi, pj, flag = _build(pos, box, params, adj, deg, ncell)
     ref = pos.copy()
@@ -833,48 +869,9 @@ def run_rigid(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rn
             force[i, 0] = 0.0
             force[i, 1] = 0.0
             force[i, 2] = 0.0
-        vir = 0.0
-        for k in range(pi.shape[0]):
-            if flag[k]:
-                continue
-            i = pi[k]
-            j = pj[k]
-            if _internal(pos, box, i, j, lab):
-                continue
-            dx = min_image(pos[j, 0] - pos[i, 0], box[0])
-            dy = min_image(pos[j, 1] - pos[i, 1], box[1])
-            dz = min_image(pos[j, 2] - pos[i, 2], box[2])
-            r2 = dx * dx + dy * dy + dz * dz
-            if r2 >= rc2:
-                continue
-            r = np.sqrt(r2)
-            h = r - 2.0
-            t = (h - lo) * inv_dh
-            if t <= 0.0:
-                f = table[0]
-            elif t >= ntab - 1:
-                f = table[ntab - 1]
-            else:
-                q = int(t)
-                w = t - q
-                f = (1.0 - w) * table[q] + w * table[q + 1]
-            if cap_drift > 0.0 and f < 0.0 and dt > 0.0:
-                fmax = cap_drift * max(h, 0.0) / (2.0 * dt)
-                if -f > fmax:
-                    f = -fmax
-            vir += f * r
-            fr = f / r
-            force[i, 0] -= fr * dx
-            force[i, 1] -= fr * dy
-            force[i, 2] -= fr * dz
-            force[j, 0] += fr * dx
-            force[j, 1] += fr * dy
-            force[j, 2] += fr * dz
+        vir = _dlvo_forces(pos, box, params, pi, pj, flag, table, force, lab, True)
         if ktrap != 0.0:
-            for i in range(n):
-                force[i, 0] -= ktrap * min_image(pos[i, 0] - cx, box[0])
-                force[i, 1] -= ktrap * min_image(pos[i, 1] - cy, box[1])
-                force[i, 2] -= ktrap * min_image(pos[i, 2] - cz, box[2])
+            _trap_forces(pos, box, ktrap, force)
         state[S_VIRIAL] += vir
         state[S_VIRIAL_STEPS] += 1.0
         _move_clusters(pos, params, state, force, rng, lab, nxt, head, csize, frozen)
@@ -886,14 +883,7 @@ def run_rigid(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rn
                 return status
         state[S_TIME] += dt
         istate[I_STEPS] += 1
-        maxd2 = 0.0
-        for i in range(n):
-            d2 = 0.0
-            for c in range(3):
-                e = min_image(pos[i, c] - ref[i, c], box[c])
-                d2 += e * e
-            if d2 > maxd2:
-                maxd2 = d2
+        maxd2 = _max_displacement2(pos, ref, box, True)
         if maxd2 > half_skin2 and rc2 > 0.0:
             pi, pj, flag = _build(pos, box, params, adj, deg, ncell)
             for i in range(n):
@@ -926,53 +916,6 @@ def run_rigid(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rn
 # friction 8 pi eta a^3 = (4/3) in reduced units (mobility 3/4), rotational noise sqrt(2 (3/4) dt).
 
 SPHERE_ROT_MOBILITY = 1.0 / SPHERE_ROT_FRICTION
-
-
-@njit(cache=True)
-def _dlvo_forces(pos, box, params, pi, pj, flag, table, force):
-    """Add the tabulated central pair force of every unbonded listed pair to ``force``; returns sum r F."""
-    dt = params[P_DT]
-    rc2 = params[P_R_CUT] * params[P_R_CUT]
-    cap_drift = params[P_CAP_DRIFT]
-    lo = params[P_TAB_LO]
-    inv_dh = 1.0 / params[P_TAB_DH]
-    ntab = table.shape[0]
-    vir = 0.0
-    for k in range(pi.shape[0]):
-        if flag[k]:
-            continue
-        i = pi[k]
-        j = pj[k]
-        dx = min_image(pos[j, 0] - pos[i, 0], box[0])
-        dy = min_image(pos[j, 1] - pos[i, 1], box[1])
-        dz = min_image(pos[j, 2] - pos[i, 2], box[2])
-        r2 = dx * dx + dy * dy + dz * dz
-        if r2 >= rc2:
-            continue
-        r = np.sqrt(r2)
-        h = r - 2.0
-        t = (h - lo) * inv_dh
-        if t <= 0.0:
-            f = table[0]
-        elif t >= ntab - 1:
-            f = table[ntab - 1]
-        else:
-            q = int(t)
-            w = t - q
-            f = (1.0 - w) * table[q] + w * table[q + 1]
-        if cap_drift > 0.0 and f < 0.0 and dt > 0.0:
-            fmax = cap_drift * max(h, 0.0) / (2.0 * dt)
-            if -f > fmax:
-                f = -fmax
-        vir += f * r
-        fr = f / r
-        force[i, 0] -= fr * dx
-        force[i, 1] -= fr * dy
-        force[i, 2] -= fr * dz
-        force[j, 0] += fr * dx
-        force[j, 1] += fr * dy
-        force[j, 2] += fr * dz
-    return vir
 
 
 @njit(cache=True)
@@ -1106,9 +1049,6 @@ def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncel
     springs = params[P_K_SLIDE] > 0.0 or params[P_K_ROLL] > 0.0
     rotate = springs or params[P_ROTATE] != 0.0
     rnoise = noise * np.sqrt(SPHERE_ROT_MOBILITY)
-    cx = 0.5 * box[0]
-    cy = 0.5 * box[1]
-    cz = 0.5 * box[2]
 
     pi, pj, flag = _build(pos, box, params, adj, deg, ncell)
     ref = pos.copy()
@@ -1121,14 +1061,11 @@ def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncel
             for c in range(3):
                 force[i, c] = 0.0
                 torque[i, c] = 0.0
-        vir = _dlvo_forces(pos, box, params, pi, pj, flag, table, force)
+        vir = _dlvo_forces(pos, box, params, pi, pj, flag, table, force, deg, False)
         if springs:
             _tangential_forces(pos, box, params, bonds, istate[I_NBONDS], anchors, force, torque)
         if ktrap != 0.0:
-            for i in range(n):
-                force[i, 0] -= ktrap * min_image(pos[i, 0] - cx, box[0])
-                force[i, 1] -= ktrap * min_image(pos[i, 1] - cy, box[1])
-                force[i, 2] -= ktrap * min_image(pos[i, 2] - cz, box[2])
+            _trap_forces(pos, box, ktrap, force)
         state[S_VIRIAL] += vir
         state[S_VIRIAL_STEPS] += 1.0
         for i in range(n):
@@ -1180,14 +1117,7 @@ def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncel
                 return status
         state[S_TIME] += dt
         istate[I_STEPS] += 1
-        maxd2 = 0.0
-        for i in range(n):
-            d2 = 0.0
-            for c in range(3):
-                e = pos[i, c] - ref[i, c]
-                d2 += e * e
-            if d2 > maxd2:
-                maxd2 = d2
+        maxd2 = _max_displacement2(pos, ref, box, False)
         if maxd2 > half_skin2 and rc2 > 0.0:
             pi, pj, flag = _build(pos, box, params, adj, deg, ncell)
             for i in range(n):
