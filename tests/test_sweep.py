@@ -166,3 +166,72 @@ def test_dynamic_moduli_from_the_shear_stage():
         _structure_values(rec, None, {}, "shear")
     with pytest.raises(InvalidInputError, match="sweep.modulus"):
         sweep_studies(_study(modulus="dem"))
+
+
+def _fake_run(folder, protocol):
+    folder.mkdir(parents=True)
+    (folder / "study.resolved.json").write_text(json.dumps({"study": {"protocol": protocol}}))
+    return folder
+
+
+def test_sets_are_labelled_by_protocol_kind_and_value(tmp_path):
+    """The report names every structure set by its study's protocol kind and the value that
+    sets it apart (swept value, else the kind's own option), never a fixed "VEM"."""
+    from polypack.ensemble.sweep import _seed_row, set_label
+
+    bd = _fake_run(tmp_path / "surface_potential=0.014", {"kind": "brownian", "surface_potential": 0.014})
+    vem = _fake_run(tmp_path / "v", {"kind": "vem", "void_ratio": 0.5})
+    # a swept BD set: labelled by the swept parameter and value, matched to the seed's BD row
+    lab, kind, key, v = set_label(bd, "protocol.surface_potential", 0.014)
+    assert (lab, kind, key, v) == ("Brownian Ψ0 = 14 mV", "brownian", "surface_potential", 0.014)
+    assert _seed_row(kind, key, v) == (14.0, 0.472, 5.08, 1.46, 0.120)
+    # included folders: the kind's own option is read from the folder's resolved study
+    assert set_label(bd)[0] == "Brownian Ψ0 = 14 mV"
+    lab, kind, key, v = set_label(vem)
+    assert (lab, kind) == ("VEM N_V/N = 0.5", "vem") and _seed_row(kind, key, v)[1] == 0.467
+    # a swept VEM value with no seed row, another kind, and a folder that is no run folder
+    assert _seed_row("vem", "void_ratio", 0.3) is None
+    assert set_label(_fake_run(tmp_path / "s", {"kind": "scrm"}))[0] == "SCRM (s)"
+    plain = tmp_path / "plain"
+    plain.mkdir()
+    assert set_label(plain)[0] == "plain"
+
+
+@pytest.mark.slow
+def test_report_fits_a_brownian_set_with_the_vem_set(tmp_path):
+    """A swept VEM set and an included Brownian-dynamics run folder enter one report: each
+    row and point carries its own label and kind, the BD row is compared with the seed's BD
+    row of its Ψ0, and the fit runs over both sets' structures."""
+    from polypack.ensemble.runner import run_study
+    from polypack.study import load_study
+
+    bd = {"study": {"name": "bd", "seed": 3, "realizations": 1},
+          "psd": {"model": "monodisperse", "d": 0.5e-6, "n": 40},
+          "protocol": {"kind": "brownian", "volume_fraction": 0.4, "surface_potential": 0.0},
+          "analysis": {"pores": {"n_points": 5000}, "contacts": {"tolerance": 0.01}},
+          "output": {"plots": False}}
+    run_study(load_study(bd), tmp_path / "bd0", progress=False)
+    out = tmp_path / "het"
+    run_sweep(_study(n=64, values=(0.5, 2.0), include=[str(tmp_path / "bd0")]), out, progress=False,
+              echo=lambda s: None)
+    data = json.loads((out / "heterogeneity" / "fit.json").read_text())
+    labels = [r["set"] for r in data["rows"]]
+    assert labels == ["VEM N_V/N = 0.5", "VEM N_V/N = 2", "Brownian Ψ0 = 0 mV"]
+    assert [r["kind"] for r in data["rows"]] == ["vem", "vem", "brownian"]
+    assert {p["set"] for p in data["points"]} == set(labels) and len(data["points"]) == 5
+    md = (out / "heterogeneity" / "table2.md").read_text()
+    bd_line = next(line for line in md.splitlines() if line.startswith("| Brownian Ψ0 = 0 mV"))
+    assert "| 0.373 | 4.52 |" in bd_line  # the seed's 0 mV BD row beside the measurement
+    assert "| VEM N_V/N = 0.5 |" in md and "| 0.467 | 4.69 |" in md
+
+
+def test_bundled_joint_bd_vem_example_validates():
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "heterogeneity_bd.toml"
+    sw, studies, name = sweep_studies(path)
+    assert sw["report"] == "heterogeneity" and sw["parameter"] == "protocol.surface_potential"
+    assert any("void_ratio" in f for f in sw["include"])
+    for v, st in studies:
+        assert st.data["protocol"]["kind"] == "brownian" and st.data["protocol"]["surface_potential"] == v
+        assert st.data["analysis"]["elastic"]["bonds"] == "distance"  # the seed's rule for both sets

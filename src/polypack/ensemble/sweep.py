@@ -24,6 +24,11 @@ resumes each.  ``report = "heterogeneity"`` then writes ``<out>/heterogeneity/``
 * ``fig2.png`` (C against a) and ``fig6.png`` (G'p against a with the fit), each with the
   seed's Table 2 values beside the measurement.
 
+Every set (each swept value, each included folder) is labelled by its study's protocol kind
+and value (:func:`set_label`: ``"VEM N_V/N = 0.5"``, ``"Brownian Ψ0 = 14 mV"``) and sits beside
+the seed's Table 2 row of the same kind and value; ``examples/heterogeneity_bd.toml`` fits a
+Brownian-dynamics Ψ0 series together with the VEM set.
+
 ``G'p`` comes from ``[analysis.elastic]`` records when the study has that stage
 (``plate_shear_modulus`` / ``shear_moduli``); otherwise the report computes it from each
 saved pack through :mod:`polypack.mechanics` (bonds at ``epsilon``, the exact static tensor
@@ -44,7 +49,7 @@ import numpy as np
 
 from ..errors import InvalidInputError
 
-__all__ = ["has_sweep", "run_sweep", "heterogeneity_report", "SEED_TABLE2"]
+__all__ = ["has_sweep", "run_sweep", "heterogeneity_report", "set_label", "SEED_TABLE2"]
 
 #: Table 2 of 003_873b69fc71c74cf6.txt (N = 8000, Φ = 0.4, kn = 100 N/m): VEM rows
 #: (N_V/N, a, C, G'p MPa, error) and BD rows (Ψ0 mV, a, C, G'p MPa, error).
@@ -224,13 +229,77 @@ def _structure_values(rec, gsd, elastic, modulus="elastic"):
     return a, b, float(c) if c is not None else float("nan"), float(g3.mean()), float(g3.std(ddof=0)), src
 
 
+#: Words of the protocol kinds in set labels, and the option that tells a set of that kind apart
+#: (with its label form) when a folder is included without a swept value.
+_KIND_WORDS = {"vem": "VEM", "brownian": "Brownian", "scrm": "SCRM", "ls": "LS", "shake": "shaken", "deposit": "deposit"}
+_KIND_KEYS = {"vem": "void_ratio", "brownian": "surface_potential"}
+
+
+def _protocol(folder: Path) -> dict:
+    """The ``[protocol]`` table of a run folder (``study.resolved.json``); ``{}`` when absent."""
+    try:
+        with open(folder / "study.resolved.json", encoding="utf-8") as fh:
+            doc = json.load(fh)
+    except (OSError, ValueError):
+        return {}
+    prot = doc.get("study", {}).get("protocol", {})
+    return prot if isinstance(prot, dict) else {}
+
+
+def _value_words(key: str, v) -> str:
+    if key == "surface_potential" and isinstance(v, (int, float)):
+        return f"Ψ0 = {1e3 * v:g} mV"
+    if key == "void_ratio" and isinstance(v, (int, float)):
+        return f"N_V/N = {v:g}"
+    return f"{key} = {v:g}" if isinstance(v, (int, float)) and not isinstance(v, bool) else f"{key} = {v}"
+
+
+def set_label(folder, parameter=None, value=None):
+    """``(label, kind, key, value)`` of one structure set (run folder) in the heterogeneity report.
+
+    The label names the protocol kind of the folder's study and the value that tells the
+    set apart: the swept ``parameter`` = ``value`` when given, else the kind's own option
+    (``void_ratio`` of VEM, ``surface_potential`` of Brownian dynamics), e.g.
+    ``"VEM N_V/N = 0.5"`` or ``"Brownian Ψ0 = 14 mV"``; a folder without a study record
+    is labelled by its name.
+    """
+    folder = Path(folder)
+    prot = _protocol(folder)
+    kind = prot.get("kind")
+    if kind is None:
+        return folder.name, None, None, folder.name
+    word = _KIND_WORDS.get(kind, str(kind))
+    if parameter is not None:
+        key = parameter.split(".")[-1]
+    else:
+        key = _KIND_KEYS.get(kind)
+        value = prot.get(key) if key is not None else None
+    if key is None or value is None:
+        return f"{word} ({folder.name})", kind, None, folder.name
+    return f"{word} {_value_words(key, value)}", kind, key, value
+
+
+def _seed_row(kind, key, value):
+    """The seed's Table 2 row of a set (VEM by N_V/N, BD by Ψ0), or None."""
+    if not isinstance(value, (int, float)):
+        return None
+    if kind == "vem" and key == "void_ratio":
+        return {round(x[0], 6): x for x in SEED_TABLE2["vem"]}.get(round(value, 6))
+    if kind == "brownian" and key == "surface_potential":
+        return {round(x[0], 3): x for x in SEED_TABLE2["bd"]}.get(round(1e3 * value, 3))
+    return None
+
+
 def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=(), elastic=None, modulus="elastic",
                          fmt="png"):
     """Table 2, Figs. 2 and 6 and the fit of Eq. (7) of 003_873b69fc71c74cf6.txt over the structures of ``sets``.
 
-    ``sets`` is a list of ``(value, run_folder)``; ``include`` more run folders (other
-    structure sets, e.g. SCRM or Brownian-dynamics packs at Φ = 0.4) that enter the fit
-    and the figures under their folder name.  Returns ``{what: path}``.
+    ``sets`` is a list of ``(value, run_folder)`` of the swept ``parameter``; ``include``
+    more run folders (other structure sets, e.g. SCRM or Brownian-dynamics packs at
+    Φ = 0.4) that enter the fit and the figures.  Every set is labelled by its protocol
+    kind and value (:func:`set_label`, e.g. ``"VEM N_V/N = 0.5"``, ``"Brownian Ψ0 = 14 mV"``)
+    and compared with the seed's Table 2 row of that kind and value where there is one.
+    Returns ``{what: path}``.
     """
     from .._util import atomic_path, make_folder
     from ..analysis.powerlaw import power_law_fit
@@ -240,14 +309,15 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
     make_folder(rep)
     rows, points = [], []
     sources = set()
-    groups = [(v, Path(f), "VEM") for v, f in sets] + [(Path(f).name, Path(f), Path(f).name) for f in include]
-    for v, folder, label in groups:
+    groups = [(Path(f), *set_label(f, parameter, v)) for v, f in sets] + [(Path(f), *set_label(f)) for f in include]
+    for folder, label, kind, vkey, v in groups:
         vals = []
         for rec, gsd in _records(folder):
             a, b, c, g, gsd_sd, src = _structure_values(rec, gsd, elastic, modulus)
             sources.add(src)
             vals.append((a, b, c, g, gsd_sd))
-            points.append({"set": label, "value": v, "index": rec["index"], "a": a, "b": b, "C": c,
+            points.append({"set": label, "kind": kind, "parameter": vkey, "value": v, "index": rec["index"],
+                           "a": a, "b": b, "C": c,
                            "G_Pa": g, "G_sd_Pa": gsd_sd})
         if not vals:
             continue
@@ -255,7 +325,7 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
         nr = arr.shape[0]
         se = (lambda x: float(x.std(ddof=1) / math.sqrt(nr)) if nr > 1 else float("nan"))
         gall = np.sqrt(np.mean(arr[:, 4] ** 2) + (arr[:, 3].var(ddof=1) if nr > 1 else 0.0))
-        rows.append({"set": label, parameter.split(".")[-1]: v, "realizations": nr,
+        rows.append({"set": label, "kind": kind, "parameter": vkey, parameter.split(".")[-1]: v, "realizations": nr,
                      "a": float(arr[:, 0].mean()), "a_se": se(arr[:, 0]), "b": float(arr[:, 1].mean()),
                      "C": float(np.nanmean(arr[:, 2])), "C_se": se(arr[:, 2]),
                      "G_MPa": float(arr[:, 3].mean()) * 1e-6, "G_sd_MPa": float(gall) * 1e-6})
@@ -284,11 +354,10 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
             for r in rows:
                 fh.write(",".join(str(r[c]) for c in cols) + "\n")
     files["table"] = rep / "table2.csv"
-    seed_rows = {round(x[0], 6): x for x in SEED_TABLE2["vem"]}
     lines = [f"| set | {key} | P | a | b | C | G'p (MPa) | seed a | seed C | seed G'p (MPa) |",
              "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        s = seed_rows.get(round(r[key], 6)) if r["set"] == "VEM" and isinstance(r[key], (int, float)) else None
+        s = _seed_row(r["kind"], r["parameter"], r[key])
         sa = f"{s[1]:.3f} | {s[2]:.2f} | {s[3]:.2f} ± {s[4]:.2f}" if s else "– | – | –"
         lines.append(f"| {r['set']} | {r[key]} | {r['realizations']} | {r['a']:.3f} ± {r['a_se']:.3f} | {r['b']:.3f} | "
                      f"{r['C']:.2f} | {r['G_MPa']:.3g} ± {r['G_sd_MPa']:.2g} | {sa} |")
@@ -323,13 +392,17 @@ def _plots(rep, points, fit, fmt):
     from .._util import atomic_path
 
     files = {}
-    sets = sorted({p["set"] for p in points}, key=lambda s: (s != "VEM", s))
+    order = {}
+    for p in points:  # sets in report order (swept first), one marker per protocol kind (seed Fig. 6:
+        order.setdefault(p["set"], p.get("kind"))  # circles VEM, triangles BD)
+    sets = list(order)
+    marker = {"vem": "o", "brownian": "^"}
     # Fig. 2: C against a
     fig, ax = plt.subplots(figsize=(5, 4))
     for s in sets:
         pa = [p["a"] for p in points if p["set"] == s]
         pc = [p["C"] for p in points if p["set"] == s]
-        ax.plot(pa, pc, "o", ms=4, label=f"{s} structures (this run)")
+        ax.plot(pa, pc, marker.get(order[s], "D"), ms=4, label=f"{s} (this run)")
     for key, mk, lab in (("vem", "s", "seed VEM (Table 2, N = 8000)"), ("bd", "^", "seed BD (Table 2)")):
         ax.plot([x[1] for x in SEED_TABLE2[key]], [x[2] for x in SEED_TABLE2[key]], mk, mfc="none", color="k",
                 label=lab)
@@ -347,7 +420,7 @@ def _plots(rep, points, fit, fmt):
     for s in sets:
         sel = [p for p in points if p["set"] == s]
         ax.errorbar([p["a"] for p in sel], [p["G_Pa"] * 1e-6 for p in sel], yerr=[p["G_sd_Pa"] * 1e-6 for p in sel],
-                    fmt="o", ms=4, capsize=2, label=f"{s} structures (this run; bars: C44, C55, C66 spread)")
+                    fmt=marker.get(order[s], "D"), ms=4, capsize=2, label=f"{s} (this run)")
     for key, mk, lab in (("vem", "s", "seed VEM (Table 2)"), ("bd", "^", "seed BD (Table 2)")):
         ax.errorbar([x[1] for x in SEED_TABLE2[key]], [x[3] for x in SEED_TABLE2[key]],
                     yerr=[x[4] for x in SEED_TABLE2[key]], fmt=mk, mfc="none", color="k", capsize=2, label=lab)
@@ -364,7 +437,8 @@ def _plots(rep, points, fit, fmt):
     ax.set_ylim(bottom=0.0)
     ax.set_xlabel("DOH parameter a (Eq. 6), dimensionless")
     ax.set_ylabel("plateau storage modulus G'p (MPa)")
-    ax.set_title("seed 003 Fig. 6: G'p against DOH (r0 = 0.25 µm, kn = 100 N/m)", fontsize=9)
+    ax.set_title("seed 003 Fig. 6: G'p against DOH (r0 = 0.25 µm, kn = 100 N/m);\n"
+                 "bars: spread over the shear directions", fontsize=8)
     ax.legend(fontsize=6)
     fig.tight_layout()
     with atomic_path(rep / f"fig6.{fmt}") as tmp:
