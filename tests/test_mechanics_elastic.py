@@ -365,9 +365,11 @@ def test_auto_solver_rule(monkeypatch):
     assert el._auto_solver(5000, 6.6, 6) == "direct"
     assert el._auto_solver(48000, 4.7, 6) == "direct"      # phi = 0.4 gel-like network
     assert el._auto_solver(48000, 6.6, 6) == "amg"         # jammed pack
-    assert el._auto_solver(12000, 6.6, 6) == "cg"
+    assert el._auto_solver(12000, 6.6, 6) == "direct"
+    assert el._auto_solver(13000, 6.6, 6) == "cg"
     assert el._auto_solver(24000, 2.5, 3) == "direct"      # translations only: isostatic Z = 2
     assert el._auto_solver(600000, 4.7, 6) == "amg"        # too large to factorize
     monkeypatch.setattr(el, "_pardiso_module", lambda: None)
     assert el._auto_solver(48000, 4.7, 6) == "amg"
     assert el._auto_solver(5000, 4.7, 6) == "direct"
+    assert el._auto_solver(12000, 6.6, 6) == "cg"

@@ -54,6 +54,10 @@ _DIRECT_MAX = 6000
 # 2.7 s factorization against 57 s of block-Jacobi CG; jammed, Z = 6.6, 10 s against 3.2 s
 # of AMG-CG (more fill, and CG converges fast there).
 _PARDISO_MAX = 150000
+# With PARDISO, every network up to this many unknowns is factorized (measured, jammed
+# N = 2000, 12 000 unknowns: 1.0 s against 1.1 s of block-Jacobi CG; the count of floppy
+# modes comes free).
+_PARDISO_ANY_MAX = 12000
 # "Near-isostatic": mean coordination of the relaxing backbone below this factor times the
 # isostatic one (2 nd / 3: 4 with rotations, 2 without; each bond pins 3 relative displacements).
 _ISOSTATIC_MARGIN = 1.4
@@ -657,7 +661,8 @@ class _Multigrid:
 def _auto_solver(unknowns, z, nd):
     """The solver ``solver="auto"`` picks for ``unknowns`` unknowns at backbone coordination ``z``.
 
-    * up to :data:`_DIRECT_MAX` unknowns: the factorization (exact floppy-mode count);
+    * up to :data:`_DIRECT_MAX` unknowns (:data:`_PARDISO_ANY_MAX` with MKL PARDISO):
+      the factorization (exact floppy-mode count);
     * with MKL PARDISO installed, near-isostatic networks (``z`` below
       :data:`_ISOSTATIC_MARGIN` times ``2 nd / 3``) of up to :data:`_PARDISO_MAX` unknowns:
       the factorization too (CG needs thousands of iterations there);
@@ -665,8 +670,9 @@ def _auto_solver(unknowns, z, nd):
     """
     if unknowns <= _DIRECT_MAX:
         return "direct"
-    if (_pardiso_module() is not None and unknowns <= _PARDISO_MAX
-            and z < _ISOSTATIC_MARGIN * 2.0 * nd / 3.0):
+    if _pardiso_module() is not None and (
+            unknowns <= _PARDISO_ANY_MAX
+            or (unknowns <= _PARDISO_MAX and z < _ISOSTATIC_MARGIN * 2.0 * nd / 3.0)):
         return "direct"
     return "cg" if unknowns < _AMG_MIN else "amg"
 
@@ -698,7 +704,7 @@ def elastic_tensor(network, rotations=True, *, radius=None, solver="auto", tol=1
         smoothed-aggregation algebraic multigrid cycle (pyamg; fewest operations on
         large, well-connected networks) or by block Jacobi (least memory). ``"auto"``
         (:func:`_auto_solver`): the factorization up to 6000 unknowns (about 1000
-        particles with rotations) and, with PARDISO, for near-isostatic networks
+        particles with rotations; 12 000 with PARDISO) and, with PARDISO, for near-isostatic networks
         (backbone coordination below 1.4 times the isostatic 4 with rotations, 2
         without) up to 150 000 unknowns; otherwise block-Jacobi CG up to 24 000 unknowns
         and AMG-CG above.
