@@ -371,10 +371,17 @@ def _solve_direct(h, b, ref, tau=1e-9, tol=1e-12, max_refine=50, local_modes=Non
 
     if backend is None:
         backend = "pardiso" if _pardiso_module() is not None else "superlu"
-    cls = _Pardiso if backend == "pardiso" else _SuperLU
     d = h.diagonal()
     bn = np.maximum(np.linalg.norm(b, axis=0), ref)
-    shifted = cls(h - sp.diags(tau * d), -2)
+    shifted = None
+    if backend == "pardiso":
+        try:
+            shifted = _Pardiso(h - sp.diags(tau * d), -2)
+        except (ImportError, OSError):  # pypardiso installed but its MKL runtime does not load
+            backend = "superlu"
+    cls = _Pardiso if backend == "pardiso" else _SuperLU
+    if shifted is None:
+        shifted = cls(h - sp.diags(tau * d), -2)
     floppy = shifted.negative
     if backend == "pardiso":
         x, res = _refine(h, b, bn, shifted.solve, tol, max_refine)
