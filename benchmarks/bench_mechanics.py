@@ -265,7 +265,8 @@ def main():
     if not args.skip_lammps:
         try:
             if args.skip_small or (args.lammps_n and args.lammps_n != args.n_small):
-                net = BondNetwork.from_packing(jammed(args.lammps_n or args.n_small, 1))
+                n_l = args.lammps_n or args.n_small
+                net = BondNetwork.from_packing(jammed(n_l, 1, args.pack8000 if n_l == args.n_small else None))
                 et_nr, t_nr, _ = timed_tensor(net, rotations=False)
             t = time.process_time()
             w = time.perf_counter()
