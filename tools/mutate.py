@@ -35,6 +35,9 @@ Usage::
     python tools/mutate.py --list          # the list only
     python tools/mutate.py --only k-rdf-fast-ly s-random-order
     python tools/mutate.py --timeout 300 --json mutants.json
+    python tools/mutate.py --markdown tools/mutants_result.md a.json b.json   # table of results
+
+The recorded result of the whole list is tools/mutants_result.md.
 """
 
 from __future__ import annotations
@@ -549,6 +552,49 @@ def _run_tests(tree: Path, tests, timeout, cache_base: Path):
     return f"error{pr.returncode}", dt, failed or (pr.stderr.strip().splitlines() or [""])[-1]
 
 
+def _write_json(path, rows):
+    ran = [r for r in rows if r[1] in ("caught", "SURVIVED")]
+    caught = sum(r[1] == "caught" for r in ran)
+    data = [{"id": m.id, "path": m.path, "kind": m.kind, "result": v, "seconds": round(dt, 1), "detail": d}
+            for m, v, dt, d in rows]
+    tmp = Path(str(path) + ".tmp")
+    tmp.write_text(json.dumps({"caught": caught, "ran": len(ran), "mutants": data}, indent=1))
+    os.replace(tmp, path)
+
+
+def _caught_by(detail):
+    """The test node of a ``FAILED tests/x.py::name - message`` line (or the line itself)."""
+    if detail.startswith(("FAILED ", "ERROR ")):
+        return detail.split(" ", 1)[1].split(" - ", 1)[0]
+    return detail
+
+
+def write_markdown(json_paths, out):
+    """Merge result files (later ones win per mutant) into a markdown table in list order."""
+    res = {}
+    for p in json_paths:
+        for r in json.loads(Path(p).read_text())["mutants"]:
+            res[r["id"]] = r
+    lines = ["| # | mutant | file | kind | result | caught by (first failing test) |",
+             "|---|---|---|---|---|---|"]
+    k = 0
+    for m in MUTANTS:
+        r = res.get(m.id)
+        k += 1
+        if r is None:
+            lines.append(f"| {k} | `{m.id}` | `{m.path}` | {m.kind} | not run | |")
+            continue
+        by = _caught_by(r["detail"]) if r["result"] == "caught" else ""
+        lines.append(f"| {k} | `{m.id}` | `{m.path}` | {m.kind} | {r['result']} | `{by}` |" if by else
+                     f"| {k} | `{m.id}` | `{m.path}` | {m.kind} | {r['result']} | |")
+    ran = [r for r in res.values() if r["result"] in ("caught", "SURVIVED")]
+    caught = sum(r["result"] == "caught" for r in ran)
+    lines.append("")
+    lines.append(f"Caught {caught} of {len(ran)} mutants run ({len(MUTANTS)} in the list).")
+    Path(out).write_text("\n".join(lines) + "\n")
+    return caught, len(ran)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--only", nargs="*", help="mutant ids to run")
@@ -557,7 +603,15 @@ def main(argv=None):
     ap.add_argument("--json", help="write the results to this file")
     ap.add_argument("--workdir", help="where the copy lives (default: a fixed folder in the temp dir)")
     ap.add_argument("--no-baseline", action="store_true", help="skip the unmutated run of all selected tests")
+    ap.add_argument("--markdown", nargs="+", metavar=("OUT", "JSON"),
+                    help="write the table of results OUT from result files JSON... (later ones win) and exit")
     args = ap.parse_args(argv)
+    if args.markdown:
+        if len(args.markdown) < 2:
+            ap.error("--markdown needs OUT and at least one JSON result file")
+        caught, ran = write_markdown(args.markdown[1:], args.markdown[0])
+        print(f"{args.markdown[0]}: caught {caught} of {ran}")
+        return 0
 
     mutants = MUTANTS if not args.only else [m for m in MUTANTS if m.id in set(args.only)]
     if args.only and len(mutants) != len(set(args.only)):
@@ -625,6 +679,8 @@ def main(argv=None):
         verdict = {"passed": "SURVIVED", "no-tests": "no-tests", "timeout": "timeout"}.get(status, "caught")
         rows.append((m, verdict, dt, line if status != "timeout" else "timeout"))
         print(f"{m.id:26s} {verdict:9s} {dt:6.0f} s  {status:8s} {line[:90]}", flush=True)
+        if args.json:  # after every mutant: an interrupted run keeps what it measured
+            _write_json(args.json, rows)
 
     ran = [r for r in rows if r[1] in ("caught", "SURVIVED")]
     caught = sum(r[1] == "caught" for r in ran)
@@ -638,9 +694,7 @@ def main(argv=None):
           + (f"; {slow} timed out (rerun with a longer --timeout)" if slow else "")
           + (f"; {stale} stale (target text changed: update the list)" if stale else ""))
     if args.json:
-        data = [{"id": m.id, "path": m.path, "kind": m.kind, "result": v, "seconds": round(dt, 1), "detail": d}
-                for m, v, dt, d in rows]
-        Path(args.json).write_text(json.dumps({"caught": caught, "ran": len(ran), "mutants": data}, indent=1))
+        _write_json(args.json, rows)
     return 0 if caught == len(ran) and not slow else 1
 
 
