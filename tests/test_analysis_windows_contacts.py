@@ -41,6 +41,21 @@ def test_window_counts_lattice_exact():
     assert ax.get_xlabel() == "$n_h$" and ax.get_ylabel() == "$p(n_h)$"
 
 
+def test_window_is_closed_on_its_boundary():
+    """``d_ij <= R_h a`` counts (the documented closed window), the convention that lattice shells at
+    exactly the window radius rely on.  Simple cubic, spacing 1, coordinates k + 1/2, radius 1/2 and
+    R_h = 2: every distance, its periodic image and the window R_h a = 1 are exact in binary floating
+    point, so the six neighbours at exactly the window radius count (an open window counts none), and
+    for R_h one ulp below 2 none does."""
+    g = np.arange(6) + 0.5
+    pos = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
+    pk = pp.Packing(pos, np.full(len(pos), 0.5), 6.0)
+    w = pp.analysis.WindowCounts(window_radius=2.0).compute(pk)
+    assert np.all(w.counts == 6)
+    w = pp.analysis.WindowCounts(window_radius=np.nextafter(2.0, 0.0)).compute(pk)
+    assert np.all(w.counts == 0)
+
+
 def test_window_species_partials_and_errors():
     rng = np.random.default_rng(3)
     pk = rsa(rng, 1000, 14.0, radii_choices=(0.6, 0.3), weights=(0.5, 0.5))
