@@ -177,20 +177,49 @@ def critical_time_step(network, density: float = DEFAULTS["density"]) -> float:
     return 2.0 / _omega_max(_network(network), float(density))
 
 
-def static_shear_modulus(network, normal: int, shear: int) -> float:
+def static_shear_modulus(network, normal: int, shear: int, *, details: bool = False):
     """Exact static modulus ``C_agag`` of a stress-free network (the DEM's own reference).
 
     ``normal`` is the gradient (plate-normal) axis ``g`` and ``shear`` the flow axis
-    ``a``; the strain is the simple shear ``e_a e_gᵀ``.  A direct sparse solve of the
-    linearised network with rotations (see :mod:`polypack.mechanics._dem_stiffness`);
-    independent of the dynamics.
+    ``a``; the strain is the simple shear ``e_a e_gᵀ``.  The linearised network with
+    rotations (contact law of Eq. (1) of 003_873b69fc71c74cf6.txt and Eq. (2) of
+    003_873b69fc71c74cf6.txt) relaxes to its energy minimum, a least-squares problem
+    solved by conjugate gradients preconditioned with a sparse factorization (see
+    :func:`polypack.mechanics._dem_stiffness.static_shear_modulus`): exact also near
+    floppiness, where zero-energy modes and a continuum of soft ones make a shifted
+    direct solve fail.  Independent of the dynamics and of
+    :func:`polypack.mechanics.elastic_tensor`.
+
+    Parameters
+    ----------
+    network : BondNetwork
+        A stress-free bonded network in a periodic 3D box.
+    normal, shear : int
+        Plate-normal and shear axes (0, 1, 2; different).
+    details : bool, default False
+        Also return a dict: ``affine`` (the unrelaxed value), ``residual`` and
+        ``iterations`` of the solve, ``zero_modes`` (eigenvalues of the reduced
+        stiffness below 1e-9 of its mean diagonal), ``rigid_modes`` (3 per bonded cluster
+        wrapping the box, 6 per other cluster or unbonded sphere) and ``floppy_modes``
+        (their difference; spheres hanging on a single bond count 3 each).
+
+    Returns
+    -------
+    float or (float, dict)
+        The modulus in stiffness units per length unit (Pa for N/m and metres).
+
+    Raises
+    ------
+    InfeasibleError
+        When the relaxation does not converge (the message gives the floppy-mode count).
     """
     from ._dem_stiffness import static_shear_modulus as _static
 
     net = _network(network)
     g, a = _check_direction((normal, shear))
-    C, _ = _static(net.pos, net.radii, np.diag(net.box), net.i, net.j, net.shift, net.kn, net.ks, a, g)
-    return C
+    C, info = _static(net.pos, net.radii, np.diag(net.box), net.i, net.j, net.shift, net.kn, net.ks, a, g,
+                      count=bool(details))
+    return (C, info) if details else C
 
 
 def _check_direction(d):

@@ -1,0 +1,188 @@
+"""The DEM's own static shear modulus near floppiness (``pp.mechanics.static_shear_modulus``).
+
+The relaxed modulus is the minimum of a linear least-squares problem (the bond energy,
+Eq. (1) of 003_873b69fc71c74cf6.txt and Eq. (2) of 003_873b69fc71c74cf6.txt linearised).
+Oracles: a dense minimum-norm least-squares solve assembled here bond by bond (no polypack
+stiffness code), lattices with analytically known floppy modes and moduli, and
+``elastic_tensor`` (a separate assembly and solver) where that one is exact.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import polypack as pp
+from polypack.errors import InfeasibleError
+from polypack.mechanics import BondNetwork, dem, elastic_tensor
+from polypack.mechanics._dem_stiffness import static_shear_modulus as raw
+
+from _dem_networks import lattice
+
+KN, KS = 100.0, 10.0
+
+
+def _skew(n):
+    return np.array([[0.0, -n[2], n[1]], [n[2], 0.0, -n[0]], [-n[1], n[0], 0.0]])
+
+
+def dense_least_squares(pos, radii, box, i, j, shift, kn, ks, a, g):
+    """Oracle: ``min sum_c |K_c^1/2 (Delta_c + e_a b_g)|^2 / V`` by a dense minimum-norm least-squares solve.
+
+    The contact point of ``i`` (``x_i + l_i n``) moves by ``u_i + theta_i x l_i n``, that of
+    ``j`` (``x_j - l_j n``) by ``u_j - theta_j x l_j n``, so the relative displacement is
+    ``Delta = u_j - u_i + l_i n x theta_i + l_j n x theta_j``; the affine part of the simple
+    shear is ``e_a (b . e_g)``.  Rotations are scaled by the mean radius (columns of one
+    scale); numpy's SVD-based solve drops singular values below eps max(shape) of the largest.
+    """
+    n_p, m = len(pos), len(i)
+    ell = float(np.mean(radii))
+    R = np.zeros((3 * m, 6 * n_p))
+    r = np.zeros(3 * m)
+    for c in range(m):
+        b = pos[j[c]] + shift[c] * box - pos[i[c]]
+        d = np.linalg.norm(b)
+        n = b / d
+        li = 0.5 * (d + radii[i[c]] - radii[j[c]])
+        lj = d - li
+        P = np.outer(n, n)
+        W = math.sqrt(kn[c]) * P + math.sqrt(ks[c]) * (np.eye(3) - P)
+        rows = slice(3 * c, 3 * c + 3)
+        R[rows, 6 * i[c]:6 * i[c] + 3] -= W
+        R[rows, 6 * i[c] + 3:6 * i[c] + 6] += W @ _skew(n) * (li / ell)
+        R[rows, 6 * j[c]:6 * j[c] + 3] += W
+        R[rows, 6 * j[c] + 3:6 * j[c] + 6] += W @ _skew(n) * (lj / ell)
+        r[rows] = W @ (np.eye(3)[a] * b[g])
+    x, *_ = np.linalg.lstsq(R, -r, rcond=None)
+    res = R @ x + r
+    return float(res @ res) / float(np.prod(box))
+
+
+def _arrays(net):
+    n = dem._network(net)
+    return n.pos, n.radii, np.diag(n.box), n.i, n.j, n.shift, n.kn, n.ks
+
+
+@pytest.fixture(scope="module")
+def vem_soft():
+    """A VEM structure (seed 003's generator, SI units) bonded at the seed's epsilon = 0.01: Z < 4."""
+    pk = pp.vem(200, volume_fraction=0.4, void_ratio=1.0, seed=3, radius=0.25e-6, progress=False)
+    return BondNetwork.from_packing(pk, epsilon=0.01)
+
+
+def test_near_floppy_vem_equals_dense_least_squares(vem_soft):
+    # Z below the isostatic 4: hundreds of zero modes and a relaxed modulus orders of
+    # magnitude below the affine one (the cancellation that broke the shifted direct solve).
+    # The dense minimum-norm solve is exact to ~1e-10 here; 1e-7 would catch a single
+    # unrelaxed soft mode (each one carries a few per cent of this modulus)
+    pos, radii, cell, i, j, shift, kn, ks = _arrays(vem_soft)
+    assert vem_soft.coordination < 4.0
+    for a, g in ((0, 2), (1, 2), (0, 1)):
+        C, info = raw(pos, radii, cell, i, j, shift, kn, ks, a, g)
+        oracle = dense_least_squares(pos, radii, np.diag(cell), i, j, shift, kn, ks, a, g)
+        assert C == pytest.approx(oracle, rel=1e-7)
+        assert C < 0.05 * info["affine"]
+        assert info["floppy_modes"] > 0 and info["residual"] < 1e-8
+    assert dem.static_shear_modulus(vem_soft, 2, 0) == pytest.approx(
+        raw(pos, radii, cell, i, j, shift, kn, ks, 0, 2)[0], rel=1e-12)
+
+
+def test_diluted_jammed_pack_agrees_with_elastic_tensor():
+    # a jammed pack with a fifth of its bonds removed at random: floppy modes beyond the
+    # rattlers', yet rigid; elastic_tensor (its own assembly and factorization) is exact on it.
+    # Counts: without rattlers (their spheres keep no bond, 6 rigid modes each) the two
+    # definitions of a floppy mode coincide
+    pk = pp.pack(np.full(250, 0.5), volume_fraction=0.62, seed=2, progress=False)
+    full = BondNetwork.from_packing(pk, epsilon=0.02, normal_stiffness=KN, shear_stiffness=KS)
+    keep = np.random.default_rng(5).random(full.n_bonds) < 0.8
+    thin = BondNetwork.from_pairs(pk, full.i[keep], full.j[keep], shift=full.shift[keep],
+                                  normal_stiffness=KN, shear_stiffness=KS)
+    bb = thin.backbone_bonds
+    net = BondNetwork.from_pairs(pk, thin.i[bb], thin.j[bb], shift=thin.shift[bb],
+                                 normal_stiffness=KN, shear_stiffness=KS)
+    et = elastic_tensor(net, solver="direct")
+    assert et.floppy_modes > 0
+    pos, radii, cell, i, j, shift, kn, ks = _arrays(net)
+    got = []
+    for a, g in ((1, 2), (0, 2), (0, 1)):
+        C, info = raw(pos, radii, cell, i, j, shift, kn, ks, a, g)
+        got.append(C)
+        assert info["floppy_modes"] >= et.floppy_modes  # islands that do not wrap count here only
+    # 1e-8: both are exact solves (round-off ~1e-12); a missed relaxation is a per-cent effect
+    np.testing.assert_allclose(got, et.shear_moduli, rtol=1e-8)
+
+
+@pytest.mark.parametrize("d", [1.0, 5e-7])
+def test_central_force_fcc_has_3n_floppy_rotations(d):
+    # ks = 0: a bond sees only the normal relative displacement, which no rotation changes,
+    # so every sphere's three rotations are exact zero modes (3N floppy modes) while the
+    # translations stay rigid (Z = 12); a Bravais lattice deforms affinely:
+    # C44 = kn / (sqrt(2) d) exactly, in any units (d = 0.5 um: the seed's SI scale)
+    net = lattice("fcc", 3, d=d, kn=KN, ks=KS)
+    pos, radii, cell, i, j, shift, kn, _ = _arrays(net)
+    for a, g in dem.SHEAR_DIRECTIONS:
+        C, info = raw(pos, radii, cell, i, j, shift, kn, np.zeros_like(kn), a, g)
+        assert C == pytest.approx(KN / (math.sqrt(2) * d), rel=1e-10)
+        assert info["floppy_modes"] == 3 * net.n
+        assert info["rigid_modes"] == 3
+
+
+def _diamond(cells, d):
+    """Diamond lattice of touching spheres (diameter d), nearest-neighbour bonds."""
+    a = 4.0 * d / math.sqrt(3.0)
+    fcc = np.array([[0, 0, 0], [0, 0.5, 0.5], [0.5, 0, 0.5], [0.5, 0.5, 0]])
+    basis = np.concatenate([fcc, fcc + 0.25])
+    g = np.arange(cells)
+    cell = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
+    pos = ((cell[:, None, :] + basis[None]).reshape(-1, 3) + 0.1) * a
+    pk = pp.Packing(pos, np.full(len(pos), 0.5 * d), np.full(3, cells * a))
+    return BondNetwork.from_packing(pk, epsilon=1e-6, normal_stiffness=KN, shear_stiffness=KS)
+
+
+@pytest.mark.parametrize("d", [1.0, 5e-7])
+def test_central_force_diamond_has_zero_shear_modulus(d):
+    # diamond with bond stretching only (Keating's beta = 0) is a mechanism in shear: the two
+    # fcc sublattices slide against each other (internal relaxation) and C44 = 0 exactly,
+    # while the affine C44 = sqrt(3) kn / (12 d) is not zero (16 bonds of n_x^2 n_z^2 = 1/9
+    # per cube of side 4 d / sqrt(3)).  Round-off: 1e-10 of the affine value
+    net = _diamond(2, d)
+    assert net.n_bonds == 2 * net.n
+    pos, radii, cell, i, j, shift, kn, _ = _arrays(net)
+    affine = math.sqrt(3.0) * KN / (12.0 * d)
+    for a, g in dem.SHEAR_DIRECTIONS:
+        C, info = raw(pos, radii, cell, i, j, shift, kn, np.zeros_like(kn), a, g)
+        assert info["affine"] == pytest.approx(affine, rel=1e-10)
+        assert abs(C) < 1e-10 * affine
+        # 3N rotations plus at least the N translational mechanisms of Maxwell's count (3N - 2N)
+        assert info["floppy_modes"] >= 4 * net.n - 3
+
+
+@pytest.mark.parametrize("d", [1.0, 5e-7])
+def test_simple_cubic_rotations_relax_in_any_units(d):
+    # simple cubic with shear springs: C44 = ks / (2 d) needs the spheres to rotate; in SI
+    # units (d = 0.5 um) a rotation costs ks l^2 ~ 1e-12 N m against kn ~ 100 N/m, and a
+    # solver that does not scale the unknowns freezes them (C44 = ks / d, twice the truth)
+    net = lattice("sc", 4, d=d, kn=KN, ks=KS)
+    for g, a in dem.SHEAR_DIRECTIONS:
+        assert dem.static_shear_modulus(net, g, a) == pytest.approx(KS / (2 * d), rel=1e-10)
+
+
+def test_rigid_random_pack_unchanged_and_details():
+    # a rigid network (Z ~ 5): the same moduli as elastic_tensor to round-off, the affine value
+    # as the Voigt bound, and the details of the solve
+    pk = pp.pack(np.full(200, 0.5), volume_fraction=0.62, seed=1, progress=False)
+    net = BondNetwork.from_packing(pk, epsilon=0.02, normal_stiffness=KN, shear_stiffness=KS)
+    et = elastic_tensor(net, solver="direct")
+    c, info = dem.static_shear_modulus(net, 2, 0, details=True)
+    assert c == pytest.approx(et.shear_moduli[1], rel=1e-9)
+    assert c < info["affine"] and info["residual"] < 1e-10
+    assert info["zero_modes"] == info["rigid_modes"] + info["floppy_modes"]
+
+
+def test_unconverged_relaxation_is_refused(vem_soft):
+    # no CG iteration allowed: the relaxation cannot converge and the error names the floppy modes
+    pos, radii, cell, i, j, shift, kn, ks = _arrays(vem_soft)
+    with pytest.raises(InfeasibleError, match=r"floppy modes"):
+        raw(pos, radii, cell, i, j, shift, kn, ks, 0, 2, maxiter=0)
