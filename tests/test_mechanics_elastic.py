@@ -373,3 +373,17 @@ def test_auto_solver_rule(monkeypatch):
     assert el._auto_solver(48000, 4.7, 6) == "amg"
     assert el._auto_solver(5000, 4.7, 6) == "direct"
     assert el._auto_solver(12000, 6.6, 6) == "cg"
+
+
+def test_moduli_do_not_depend_on_the_collective_floppy_projection(loose_net, monkeypatch):
+    """Above _FLOPPY_BASIS_MAX collective floppy modes the dense basis is skipped (it costs
+    O(n k^2)); a floppy mode carries no stress, so the tensor and the floppy count must be the
+    same with and without it, to the solve's 1e-8 of the largest entry."""
+    from polypack.mechanics import elastic as el
+
+    full = elastic_tensor(loose_net, solver="direct")
+    monkeypatch.setattr(el, "_FLOPPY_BASIS_MAX", -1)
+    capped = elastic_tensor(loose_net, solver="direct")
+    scale = np.abs(full.stiffness).max()
+    np.testing.assert_allclose(capped.stiffness, full.stiffness, rtol=0, atol=1e-8 * scale)
+    assert capped.floppy_modes == full.floppy_modes > 5
