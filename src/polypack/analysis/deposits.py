@@ -170,8 +170,12 @@ class DepositStatistics(Estimator):
             sel = (pos[:, 1] >= edges[b]) & (pos[:, 1] < edges[b + 1]) & (pos[:, 0] >= x0) & (pos[:, 0] <= x1)
             if sel.any():
                 mean_d[b] = 2.0 * rad[sel].mean()
+        return self._record(np.array([x0, x1, y0, y1]), rho, zin, shares, inside, edges, frac, mean_d)
+
+    def _record(self, window, rho, zin, shares, inside, edges, frac, mean_d):
+        """Append one realization's frame (the same fields in 2D and 3D) and return self."""
         self._frames.append({
-            "window": np.array([x0, x1, y0, y1]),
+            "window": window,
             "packing_fraction": np.array(rho),
             "coordination": np.array(zin.mean() if zin.size else np.nan),
             "shares": shares,
@@ -226,17 +230,7 @@ class DepositStatistics(Estimator):
             sel = infoot & (pos[:, 2] >= edges[b]) & (pos[:, 2] < edges[b + 1])
             if sel.any():
                 mean_d[b] = 2.0 * rad[sel].mean()
-        self._frames.append({
-            "window": np.array([lo[0], hi[0], lo[1], hi[1], lo[2], hi[2]]),
-            "packing_fraction": np.array(rho),
-            "coordination": np.array(zin.mean() if zin.size else np.nan),
-            "shares": shares,
-            "n_window": np.array(int(inside.sum())),
-            "edges": edges,
-            "fraction": frac,
-            "mean_diameter": mean_d,
-        })
-        return self
+        return self._record(np.array([lo[0], hi[0], lo[1], hi[1], lo[2], hi[2]]), rho, zin, shares, inside, edges, frac, mean_d)
 
     # ------------------------------------------------------------------ results
     @property
