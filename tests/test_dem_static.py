@@ -169,6 +169,25 @@ def test_simple_cubic_rotations_relax_in_any_units(d):
         assert dem.static_shear_modulus(net, g, a) == pytest.approx(KS / (2 * d), rel=1e-10)
 
 
+@pytest.mark.parametrize("d", [1.0, 5e-7])
+def test_unbonded_sphere_adds_six_rigid_modes_and_no_floppy_one(d):
+    # an fcc lattice with shear springs (Z = 12, rigid: no floppy mode, C44 = (kn + ks) / (sqrt(2) d)
+    # as in test_dem) plus one small sphere alone in an octahedral hole (no bond): its six
+    # degrees of freedom are zero modes and rigid-body motions, so the counts are exact --
+    # 3 (the lattice cluster wraps the box) + 6 rigid, 0 floppy -- and the modulus is unchanged
+    fcc = lattice("fcc", 3, d=d, kn=KN, ks=KS)
+    pk = fcc.packing
+    a = math.sqrt(2.0) * d
+    hole = (np.array([0.5, 0.5, 0.5]) + 0.25) * a  # octahedral site: a/2 = 0.71 d from six centres
+    grown = pp.Packing(np.vstack([pk.positions, hole]), np.append(pk.radii, 0.1 * d), pk.box)
+    net = BondNetwork.from_pairs(grown, fcc.i, fcc.j, shift=fcc.shift, normal_stiffness=KN, shear_stiffness=KS)
+    c, info = dem.static_shear_modulus(net, 2, 0, details=True)
+    assert c == pytest.approx((KN + KS) / (math.sqrt(2.0) * d), rel=1e-8)
+    assert info["rigid_modes"] == 3 + 6
+    assert info["floppy_modes"] == 0
+    assert info["zero_modes"] == 9
+
+
 def test_rigid_random_pack_unchanged_and_details():
     # a rigid network (Z ~ 5): the same moduli as elastic_tensor to round-off, the affine value
     # as the Voigt bound, and the details of the solve

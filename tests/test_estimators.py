@@ -45,16 +45,12 @@ def _all_estimators():
 
     for info in pkgutil.iter_modules(pa.__path__):
         importlib.import_module(f"polypack.analysis.{info.name}")
-    try:  # mechanics estimators follow the same protocol
-        import polypack.mechanics as pm
+    # mechanics estimators follow the same protocol; plain imports: an import bug in any
+    # module of polypack fails here instead of silently dropping its estimators
+    import polypack.mechanics as pm
 
-        for info in pkgutil.iter_modules(pm.__path__):
-            try:
-                importlib.import_module(f"polypack.mechanics.{info.name}")
-            except ImportError:
-                pass
-    except ImportError:
-        pass
+    for info in pkgutil.iter_modules(pm.__path__):
+        importlib.import_module(f"polypack.mechanics.{info.name}")
     out, todo = {}, list(Estimator.__subclasses__())
     while todo:
         cls = todo.pop()

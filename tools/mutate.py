@@ -29,10 +29,20 @@ slow machine is no evidence that the tests notice the bug (rerun it with a longe
 A mutant whose target text no longer occurs exactly once (the code was refactored)
 is reported as ``stale`` and skipped, never applied somewhere else.
 
+Two shards run side by side on two cores: each has its own workdir (the copy, its numba
+cache folders and the pytest temporary folder live there), and ``--markdown`` merges
+their result files::
+
+    nice python tools/mutate.py --workdir /tmp/mut_a --shard 1/2 --json a.json &
+    nice python tools/mutate.py --workdir /tmp/mut_b --shard 2/2 --json b.json &
+    wait; python tools/mutate.py --markdown tools/mutants_result.md a.json b.json
+
 Usage::
 
     python tools/mutate.py                 # all mutants
     python tools/mutate.py --list          # the list only
+    python tools/mutate.py --check         # every mutant applies once, compiles, names existing tests
+    python tools/mutate.py --shard 2/3     # every third mutant from the second (list order)
     python tools/mutate.py --only k-rdf-fast-ly s-random-order
     python tools/mutate.py --timeout 300 --json mutants.json
     python tools/mutate.py --markdown tools/mutants_result.md a.json b.json   # table of results
@@ -46,6 +56,7 @@ import argparse
 import hashlib
 import json
 import os
+import resource
 import shutil
 import subprocess
 import sys
@@ -381,8 +392,8 @@ MUTANTS += [
            "dv_el = pref * ex * (-kappa / r - 1.0 / (r * r))", "dv_el = pref * ex * (-kappa / r + 1.0 / (r * r))",
            T_BD, "wrong sign (screened Coulomb derivative)"),
     Mutant("k-bd-drift-cap", K + "bd.py",
-           "at most cap_drift * h\n                fmax = cap_drift * max(h, 0.0) / (2.0 * dt)\n",
-           "at most cap_drift * h\n                fmax = cap_drift * max(h, 0.0) / dt\n",
+           "        fmax = cap_drift * max(h, 0.0) / (2.0 * dt)\n",
+           "        fmax = cap_drift * max(h, 0.0) / dt\n",
            ("tests/test_bd_kernel.py",) + T_BD, "factor 2 (both spheres move)"),
     Mutant("k-bd-rigid-drag", K + "bd.py",
            "        sm = 1.0 / np.sqrt(m)\n", "        sm = 1.0 / m\n",
@@ -437,6 +448,50 @@ MUTANTS += [
     Mutant("m-stage-radius-scale", M + "stages.py",
            "s = float(radius) / float(np.mean(packing.radii))", "s = float(radius) / float(np.max(packing.radii))",
            T_ST, "wrong reference"),
+]
+
+
+# round 2 (session 6): the DEM's static reference, the closed-form three-point shear bounds,
+# the PARDISO inertia count, the pruning of 3D deposition
+T_DST = ("tests/test_dem_static.py",) + T_DEM
+T_MPT = ("tests/test_mechanics_threepoint_bounds.py",) + T_EFF
+MUTANTS += [
+    # static_shear_modulus (mechanics/_dem_stiffness.py).  (The reference length ell and any
+    # scaling of whole unknown columns cancel in min |R q + r|: only a scaling that differs
+    # between unknowns of the same kind changes the conditioning, the SI-scale tests see it.)
+    Mutant("m-static-rot-scale-j", M + "_dem_stiffness.py",
+           "    B[:, :, 3:6] /= ell\n    B[:, :, 9:12] /= ell\n",
+           "    B[:, :, 3:6] /= ell\n    B[:, :, 3:6] /= ell\n",
+           T_DST, "copy-paste (rotations of j left in SI units)"),
+    Mutant("m-static-energy-sign", M + "_dem_stiffness.py",
+           "    relaxed = R @ q + r\n", "    relaxed = R @ q - r\n",
+           T_DST, "wrong sign (relaxed energy)"),
+    Mutant("m-static-unbonded-rigid", M + "_dem_stiffness.py",
+           "+ 6 * np.count_nonzero(label < 0))", "+ 3 * np.count_nonzero(label < 0))",
+           ("tests/test_dem_static.py::test_unbonded_sphere_adds_six_rigid_modes_and_no_floppy_one",) + T_DST,
+           "wrong count (rigid modes of an unbonded sphere)"),
+    # closed-form Milton-Phan-Thien parameters (mechanics/effective.py): a zeta average for an
+    # eta one keeps the Hashin-Shtrikman limits (zeta2 = eta2 = 0 and 1) exact
+    Mutant("m-mpt-theta-eta", M + "effective.py",
+           "th_num = 3 * ge * (6 * kz + 7 * gz) - 5 * gz * gz", "th_num = 3 * ge * (6 * kz + 7 * gz) - 5 * gz * ge",
+           T_MPT, "wrong average (Theta, eta for zeta)"),
+    Mutant("m-mpt-xi-eta", M + "effective.py",
+           "128 / k2 + 99 / g2) + 45 * ig_e", "128 / k2 + 99 / g2) + 45 * ig_z",
+           T_MPT, "wrong average (Xi, zeta for eta)"),
+    # the variational oracle of those closed forms (mechanics/_threepoint_bounds.py)
+    Mutant("m-3ptb-i4", M + "_threepoint_bounds.py",
+           "i4 = 7.0 * phi1 * phi2 * (eta2 - 5.0 * zeta2 / 21.0) / 150.0",
+           "i4 = 7.0 * phi1 * phi2 * (eta2 - 5.0 * zeta2 / 7.0) / 150.0",
+           ("tests/test_mechanics_threepoint_bounds.py",), "wrong coefficient (I4 of the oracle)"),
+    # PARDISO inertia: pypardiso's get_iparm is 1-based, iparm(22) the positive pivots
+    Mutant("m-el-pardiso-inertia", M + "elastic.py",
+           "self.negative = int(self._s.get_iparm(23))", "self.negative = int(self._s.get_iparm(22))",
+           T_EL, "off-by-one (iparm index of the inertia)"),
+    # 3D deposition: the envelope-level lower bound that orders and stops the searches
+    Mutant("k-dep3-level-bound", K + "deposit3d.py",
+           "lbl = work_f[s, 6 + lev] + (r - rho[lev]) - lmargin", "lbl = work_f[s, 6 + lev] + (r - rmin) - lmargin",
+           ("tests/test_deposit3d.py::test_pruned_search_equals_the_exhaustive_search",) + T_DEP3,
+           "wrong reference radius (pruning bound)"),
 ]
 
 
@@ -528,7 +583,13 @@ def _copy_tree(dest: Path):
             shutil.copy2(s, dest / name)
 
 
+def _children_cpu():
+    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return ru.ru_utime + ru.ru_stime
+
+
 def _run_tests(tree: Path, tests, timeout, cache_base: Path):
+    """Run ``tests`` on ``tree``: ``(status, wall seconds, last line, CPU seconds)``."""
     env = dict(os.environ)
     env["PYTHONPATH"] = str(tree / "src")
     env["NUMBA_CACHE_DIR"] = str(cache_base / _kernel_digest(tree / "src"))
@@ -536,30 +597,36 @@ def _run_tests(tree: Path, tests, timeout, cache_base: Path):
     env.setdefault("PYTHONDONTWRITEBYTECODE", "1")
     tests = [t for t in tests if (tree / t.split("::")[0]).exists()]
     if not tests:
-        return "no-tests", 0.0, "none of the listed test files exists"
-    cmd = [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", "-m", "", *tests]
-    t0 = time.perf_counter()
+        return "no-tests", 0.0, "none of the listed test files exists", 0.0
+    # the pytest temporary folder inside the workdir: shards running side by side never
+    # share (or clean up) each other's folders
+    basetemp = cache_base.parent / "pytest-tmp"
+    cmd = [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", "-m", "",
+           f"--basetemp={basetemp}", *tests]
+    t0, c0 = time.perf_counter(), _children_cpu()
     try:
         pr = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
-        return "timeout", time.perf_counter() - t0, ""
-    dt = time.perf_counter() - t0
+        return "timeout", time.perf_counter() - t0, "", _children_cpu() - c0
+    dt, cpu = time.perf_counter() - t0, _children_cpu() - c0
     out = pr.stdout.strip().splitlines()
     failed = next((ln for ln in out if ln.startswith(("FAILED", "ERROR"))), out[-1] if out else "")
     if pr.returncode == 0:
-        return "passed", dt, out[-1] if out else ""
+        return "passed", dt, out[-1] if out else "", cpu
     if pr.returncode == 1:
-        return "failed", dt, failed
-    return f"error{pr.returncode}", dt, failed or (pr.stderr.strip().splitlines() or [""])[-1]
+        return "failed", dt, failed, cpu
+    return f"error{pr.returncode}", dt, failed or (pr.stderr.strip().splitlines() or [""])[-1], cpu
 
 
-def _write_json(path, rows):
+def _write_json(path, rows, meta):
     ran = [r for r in rows if r[1] in ("caught", "SURVIVED")]
     caught = sum(r[1] == "caught" for r in ran)
-    data = [{"id": m.id, "path": m.path, "kind": m.kind, "result": v, "seconds": round(dt, 1), "detail": d}
-            for m, v, dt, d in rows]
+    data = [{"id": m.id, "path": m.path, "kind": m.kind, "result": v, "seconds": round(dt, 1),
+             "cpu_seconds": round(cpu, 1), "detail": d} for m, v, dt, d, cpu in rows]
+    meta = dict(meta, finished=time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime()),
+                load_average_end=[round(x, 2) for x in os.getloadavg()])
     tmp = Path(str(path) + ".tmp")
-    tmp.write_text(json.dumps({"caught": caught, "ran": len(ran), "mutants": data}, indent=1))
+    tmp.write_text(json.dumps({"caught": caught, "ran": len(ran), "run": meta, "mutants": data}, indent=1))
     os.replace(tmp, path)
 
 
@@ -576,30 +643,82 @@ def write_markdown(json_paths, out):
     for p in json_paths:
         for r in json.loads(Path(p).read_text())["mutants"]:
             res[r["id"]] = r
-    lines = ["| # | mutant | file | kind | result | caught by (first failing test) |",
-             "|---|---|---|---|---|---|"]
-    k = 0
-    for m in MUTANTS:
+    lines = ["| # | mutant | file | kind | result | s (wall / CPU) | caught by (first failing test) |",
+             "|---|---|---|---|---|---|---|"]
+    wall = cpu = 0.0
+    for k, m in enumerate(MUTANTS, 1):
         r = res.get(m.id)
-        k += 1
         if r is None:
-            lines.append(f"| {k} | `{m.id}` | `{m.path}` | {m.kind} | not run | |")
+            lines.append(f"| {k} | `{m.id}` | `{m.path}` | {m.kind} | not run | | |")
             continue
+        wall += r["seconds"]
+        cpu += r.get("cpu_seconds", 0.0)
+        t = f"{r['seconds']:.0f} / {r['cpu_seconds']:.0f}" if "cpu_seconds" in r else f"{r['seconds']:.0f}"
         by = _caught_by(r["detail"]) if r["result"] == "caught" else ""
-        lines.append(f"| {k} | `{m.id}` | `{m.path}` | {m.kind} | {r['result']} | `{by}` |" if by else
-                     f"| {k} | `{m.id}` | `{m.path}` | {m.kind} | {r['result']} | |")
+        lines.append(f"| {k} | `{m.id}` | `{m.path}` | {m.kind} | {r['result']} | {t} | " + (f"`{by}` |" if by else "|"))
     ran = [r for r in res.values() if r["result"] in ("caught", "SURVIVED")]
     caught = sum(r["result"] == "caught" for r in ran)
+    missing = sum(m.id not in res for m in MUTANTS)
     lines.append("")
-    lines.append(f"Caught {caught} of {len(ran)} mutants run ({len(MUTANTS)} in the list).")
+    lines.append(f"Caught {caught} of {len(ran)} mutants run ({len(MUTANTS)} in the list"
+                 + (f", {missing} not run" if missing else "") + f"); tests of the mutants: {wall / 60:.0f} min wall, "
+                 f"{cpu / 60:.0f} min CPU in total.")
     Path(out).write_text("\n".join(lines) + "\n")
     return caught, len(ran)
+
+
+def check(mutants, root=ROOT):
+    """Problems of the list against the tree ``root``: one line per mutant that would not run as meant.
+
+    A mutant must find its text exactly once (else it is stale), the mutated file must still
+    compile (a syntax error is "caught" by any test, which says nothing) and every test file
+    and test function it names must exist.
+    """
+    problems = []
+    for m in mutants:
+        target = root / m.path
+        if not target.exists():
+            problems.append(f"{m.id}: {m.path} does not exist")
+            continue
+        text = target.read_text()
+        hits = text.count(m.find)
+        if hits != 1:
+            problems.append(f"{m.id}: target text found {hits} times in {m.path}")
+            continue
+        if m.find == m.replace:
+            problems.append(f"{m.id}: the replacement equals the target")
+        try:
+            compile(text.replace(m.find, m.replace), str(target), "exec")
+        except SyntaxError as exc:
+            problems.append(f"{m.id}: the mutated {m.path} does not compile ({exc.msg}, line {exc.lineno})")
+        for t in m.tests:
+            f, _, node = t.partition("::")
+            if not (root / f).exists():
+                problems.append(f"{m.id}: test file {f} does not exist")
+            elif node and f"def {node.split('[')[0]}(" not in (root / f).read_text():
+                problems.append(f"{m.id}: test {t} does not exist")
+    return problems
+
+
+def _shard(text):
+    try:
+        k, n = (int(v) for v in text.split("/"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--shard {text!r}: give k/n with 1 <= k <= n, e.g. 1/2") from None
+    if not 1 <= k <= n:
+        raise argparse.ArgumentTypeError(f"--shard {text!r}: give k/n with 1 <= k <= n, e.g. 1/2")
+    return k, n
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--only", nargs="*", help="mutant ids to run")
     ap.add_argument("--list", action="store_true", help="print the mutant list and exit")
+    ap.add_argument("--check", action="store_true",
+                    help="check that every selected mutant applies exactly once and compiles, and exit")
+    ap.add_argument("--shard", type=_shard, metavar="K/N",
+                    help="run every N-th selected mutant from the K-th (list order; shards run side by side "
+                         "with different --workdir)")
     ap.add_argument("--timeout", type=float, default=600.0, help="seconds per mutant (default 600)")
     ap.add_argument("--json", help="write the results to this file")
     ap.add_argument("--workdir", help="where the copy lives (default: a fixed folder in the temp dir)")
@@ -618,12 +737,24 @@ def main(argv=None):
     if args.only and len(mutants) != len(set(args.only)):
         unknown = set(args.only) - {m.id for m in mutants}
         ap.error(f"unknown mutant id(s): {sorted(unknown)}")
+    if args.shard:
+        k, n = args.shard
+        mutants = mutants[k - 1::n]
+    if args.check:
+        problems = check(mutants)
+        for line in problems:
+            print(line)
+        print(f"{len(mutants) - len({p.split(':', 1)[0] for p in problems})} of {len(mutants)} mutants apply")
+        return 1 if problems else 0
     if args.list:
         for m in mutants:
             print(f"{m.id:26s} {m.kind:34s} {m.path}")
         return 0
 
     work = Path(args.workdir or Path(tempfile.gettempdir()) / f"polypack-mutate-{os.getuid()}")
+    meta = {"started": time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime()),
+            "load_average_start": [round(x, 2) for x in os.getloadavg()],
+            "argv": sys.argv[1:] if argv is None else list(argv), "workdir": str(work), "timeout": args.timeout}
     tree = work / "tree"
     cache_base = work / "numba"
     _copy_tree(tree)
@@ -632,9 +763,10 @@ def main(argv=None):
     seeded = _seed_from_user_cache(tree, cache_base / clean_digest)
     if seeded:
         print(f"numba cache: {seeded} files from the repository's own cache", flush=True)
-    if not seeded:
+    if not seeded and any(m.path.startswith(K) for m in mutants):
         # compile every kernel of the unmodified tree once (``polypack warmup``): the seed of
-        # the per-mutant caches, so a kernel mutant recompiles only its own module(s)
+        # the per-mutant caches, so a kernel mutant recompiles only its own module(s); without a
+        # kernel mutant the tests fill the clean cache as they go
         env = dict(os.environ, PYTHONPATH=str(tree / "src"), NUMBA_CACHE_DIR=str(cache_base / clean_digest))
         t0 = time.perf_counter()
         wr = subprocess.run([sys.executable, "-m", "polypack.cli", "warmup"], cwd=tree, env=env,
@@ -644,7 +776,7 @@ def main(argv=None):
 
     if not args.no_baseline:
         tests = sorted({t for m in mutants for t in m.tests})
-        status, dt, line = _run_tests(tree, tests, 4 * args.timeout, cache_base)
+        status, dt, line, _ = _run_tests(tree, tests, 4 * args.timeout, cache_base)
         print(f"baseline (no mutant): {status} in {dt:.0f} s  {line}")
         if status != "passed":
             print("the unmutated tree fails its tests: fix that first", file=sys.stderr)
@@ -654,7 +786,7 @@ def main(argv=None):
     for m in mutants:
         target = tree / m.path
         if not target.exists():
-            rows.append((m, "stale", 0.0, f"{m.path} does not exist"))
+            rows.append((m, "stale", 0.0, f"{m.path} does not exist", 0.0))
             print(f"{m.id:26s} stale     (file gone)", flush=True)
             continue
         original = target.read_bytes()
@@ -662,7 +794,7 @@ def main(argv=None):
         text = original.decode()
         hits = text.count(m.find)
         if hits != 1:
-            rows.append((m, "stale", 0.0, f"target text found {hits} times"))
+            rows.append((m, "stale", 0.0, f"target text found {hits} times", 0.0))
             print(f"{m.id:26s} stale     (target text found {hits} times)", flush=True)
             continue
         target.write_text(text.replace(m.find, m.replace))
@@ -671,31 +803,31 @@ def main(argv=None):
             kernels = tree / "src" / "polypack" / "_kernels"
             _seed_cache(cache_base / clean_digest, cache_base / digest, _kernel_dependents(kernels, target.stem))
         try:
-            status, dt, line = _run_tests(tree, m.tests, args.timeout, cache_base)
+            status, dt, line, cpu = _run_tests(tree, m.tests, args.timeout, cache_base)
         finally:
             target.write_bytes(original)
             os.utime(target, ns=(stat.st_atime_ns, stat.st_mtime_ns))
             if digest != clean_digest:
                 shutil.rmtree(cache_base / digest, ignore_errors=True)
         verdict = {"passed": "SURVIVED", "no-tests": "no-tests", "timeout": "timeout"}.get(status, "caught")
-        rows.append((m, verdict, dt, line if status != "timeout" else "timeout"))
-        print(f"{m.id:26s} {verdict:9s} {dt:6.0f} s  {status:8s} {line[:90]}", flush=True)
+        rows.append((m, verdict, dt, line if status != "timeout" else "timeout", cpu))
+        print(f"{m.id:26s} {verdict:9s} {dt:6.0f} s {cpu:6.0f} cpu-s  {status:8s} {line[:90]}", flush=True)
         if args.json:  # after every mutant: an interrupted run keeps what it measured
-            _write_json(args.json, rows)
+            _write_json(args.json, rows, meta)
 
     ran = [r for r in rows if r[1] in ("caught", "SURVIVED")]
     caught = sum(r[1] == "caught" for r in ran)
     print()
-    print(f"{'mutant':26s} {'kind':34s} {'result':9s} {'s':>5s}")
-    for m, verdict, dt, _ in rows:
-        print(f"{m.id:26s} {m.kind:34s} {verdict:9s} {dt:5.0f}")
+    print(f"{'mutant':26s} {'kind':34s} {'result':9s} {'s':>5s} {'cpu-s':>6s}")
+    for m, verdict, dt, _, cpu in rows:
+        print(f"{m.id:26s} {m.kind:34s} {verdict:9s} {dt:5.0f} {cpu:6.0f}")
     stale = sum(r[1] == "stale" for r in rows)
     slow = sum(r[1] == "timeout" for r in rows)
     print(f"\ncaught {caught} of {len(ran)} mutants ({caught / max(len(ran), 1):.0%})"
           + (f"; {slow} timed out (rerun with a longer --timeout)" if slow else "")
           + (f"; {stale} stale (target text changed: update the list)" if stale else ""))
     if args.json:
-        _write_json(args.json, rows)
+        _write_json(args.json, rows, meta)
     return 0 if caught == len(ran) and not slow else 1
 
 
