@@ -362,20 +362,24 @@ def _run_locked(study, out, seeds, executor, workers, force, progress, aggregate
 
     bar = progress_bar(total=study.realizations, desc=study.name, progress=progress, unit="realization")
     bar.update(len(skipped))
+
+    def collect(i, result):
+        # one realization's outcome: written at once (a failure is kept, the others go on)
+        try:
+            _, pk, rec, sec = result()
+        except PolypackError as exc:
+            failures[i] = exc
+        else:
+            records[i] = _write_realization(out, study, i, pk, rec, sec)
+            computed.append(i)
+        bar.update(1)
+
     own = None
     try:
         if todo and executor is None and workers == 1:
             for i in todo:
                 _interrupt.check(f"interrupted before realization {i}")
-                try:
-                    _, pk, rec, sec = run_realization(study.data, i, seeds[i])
-                except PolypackError as exc:
-                    failures[i] = exc
-                    bar.update(1)
-                    continue
-                records[i] = _write_realization(out, study, i, pk, rec, sec)
-                computed.append(i)
-                bar.update(1)
+                collect(i, lambda: run_realization(study.data, i, seeds[i]))
         elif todo:
             # compile the study's kernels once here: the workers then load the numba cache
             # instead of compiling the same kernels at the same time (cold start)
@@ -401,16 +405,7 @@ def _run_locked(study, out, seeds, executor, workers, force, progress, aggregate
                     done, waiting = cf.wait(waiting, timeout=0.25, return_when=cf.FIRST_COMPLETED)
                     _interrupt.check("interrupted while realizations were running")
                     for fut in sorted(done, key=lambda f: futs[f]):
-                        i = futs[fut]
-                        try:
-                            _, pk, rec, sec = fut.result()
-                        except PolypackError as exc:
-                            failures[i] = exc
-                            bar.update(1)
-                            continue
-                        records[i] = _write_realization(out, study, i, pk, rec, sec)
-                        computed.append(i)
-                        bar.update(1)
+                        collect(futs[fut], fut.result)
             except BaseException:
                 if own is not None:
                     _stop_pool(own)
