@@ -157,10 +157,10 @@ def test_dynamic_moduli_from_the_shear_stage():
                         "shear": {"coordination": 4.5, "direction": {
                             f"{g}-{a}": {"storage_modulus": v} for (g, a), v in
                             zip([(0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1)], [1.0, 2.0, 3.0, 4.0, 5.0, 6.0])}}}}
-    a, b, c, g, sd, src = _structure_values(rec, None, {}, "shear")
+    a, b, c, g, sd, src, g_aff = _structure_values(rec, None, {}, "shear")
     assert (a, b, c) == (0.45, 0.01, 4.6)
     assert g == pytest.approx(3.5) and sd == pytest.approx(np.std([1, 2, 3, 4, 5, 6]))
-    assert "shear" in src
+    assert "shear" in src and np.isnan(g_aff)  # no affine reference without [analysis.elastic]
     del rec["analysis"]["shear"]
     with pytest.raises(InvalidInputError, match="needs \\[analysis.shear\\]"):
         _structure_values(rec, None, {}, "shear")
@@ -235,3 +235,42 @@ def test_bundled_joint_bd_vem_example_validates():
     for v, st in studies:
         assert st.data["protocol"]["kind"] == "brownian" and st.data["protocol"]["surface_potential"] == v
         assert st.data["analysis"]["elastic"]["bonds"] == "distance"  # the seed's rule for both sets
+
+
+def test_floppy_structures_are_zero_and_left_out_of_the_fit(tmp_path):
+    """A structure whose static G'p is round-off of zero (below FLOPPY_FLOOR of its affine
+    modulus, as the N_V/N >= 1.6 VEM structures at the seed's size: 1e-11 MPa against an
+    affine 22 MPa) counts as G'p = 0: it is reported as floppy and left out of the Eq. (7)
+    fit, which then recovers the exact (a0, beta, A) of the rigid structures.  With the old
+    rule (every G'p > 0 enters) the floppy point below a0 makes the fit fail."""
+    from polypack.analysis.powerlaw import power_law_fit
+    from polypack.ensemble.sweep import heterogeneity_report
+
+    a0, beta, amp, g_aff = 0.37, 0.5, 3.0e6, 2.2e7
+
+    def run(name, a_values, g_values):
+        folder = _fake_run(tmp_path / name, {"kind": "vem", "void_ratio": 1.0})
+        (folder / "realizations").mkdir()
+        for i, (a, g) in enumerate(zip(a_values, g_values)):
+            rec = {"index": i, "protocol": {"status": "target"},
+                   "analysis": {"pores": {"fit": {"seed": {"a": a, "b": 0.0}}}, "contacts": {"coordination": 4.5},
+                                "elastic": {"shear_moduli": [g, g, g], "affine_shear_modulus": g_aff}}}
+            (folder / "realizations" / f"r{i:04d}.json").write_text(json.dumps(rec))
+        return folder
+
+    rigid_a = [0.40, 0.45, 0.50, 0.55]
+    sets = [(0.5, run("rigid", rigid_a, [amp * (x - a0) ** beta for x in rigid_a])),
+            (2.0, run("floppy", [0.36, 0.361], [1e-5, -7e-4]))]  # round-off of G'p = 0, both signs
+    heterogeneity_report(tmp_path / "out", sets, parameter="protocol.void_ratio")
+    data = json.loads((tmp_path / "out" / "heterogeneity" / "fit.json").read_text())
+    assert [p["rigid"] for p in data["points"]] == [True] * 4 + [False] * 2
+    assert [p["G_Pa"] for p in data["points"][4:]] == [0.0, 0.0]
+    fit = data["fit"]
+    assert fit["a0"] == pytest.approx(a0, rel=1e-6) and fit["beta"] == pytest.approx(beta, rel=1e-5)
+    assert "2 floppy structure(s)" in data["note"]
+    assert [r["floppy"] for r in data["rows"]] == [0, 2]
+    md = (tmp_path / "out" / "heterogeneity" / "table2.md").read_text()
+    assert "| 0 (floppy) |" in md
+    with pytest.raises(Exception):  # what the old rule fed to the fit: the floppy point breaks it
+        bad = power_law_fit(rigid_a + [0.36], [amp * (x - a0) ** beta for x in rigid_a] + [1e-5])
+        assert bad.a0 == pytest.approx(a0, rel=1e-3)

@@ -185,13 +185,23 @@ def _records(folder: Path):
     return recs
 
 
+#: A structure whose static shear modulus is below this fraction of its affine (Voigt) modulus
+#: is floppy (no rigid cluster spans the box: G'p = 0).  The solvers of
+#: :func:`polypack.mechanics.elastic_tensor` agree to ~1e-8 of the affine scale, so a smaller
+#: value is round-off of a zero modulus (e.g. 1e-11 MPa against an affine 22 MPa), and fitting
+#: its logarithm would wreck the power law of Eq. (7) of 003_873b69fc71c74cf6.txt.
+FLOPPY_FLOOR = 1e-6
+
+
 def _structure_values(rec, gsd, elastic, modulus="elastic"):
-    """``(a, b, C, G'p, G'p_sd, source)`` of one structure.
+    """``(a, b, C, G'p, G'p_sd, source, G_affine)`` of one structure.
 
     ``modulus = "shear"`` takes the dynamic storage moduli of the ``[analysis.shear]``
     record (mean and spread over its shear directions, as the seed's error bars);
     ``"elastic"`` the static shear moduli C44, C55, C66 of ``[analysis.elastic]`` or, when
     the record has none, of the report's own :func:`polypack.mechanics.elastic_tensor`.
+    ``G_affine`` is the affine shear modulus of the bonded network when known (the reference
+    of :data:`FLOPPY_FLOOR`), else NaN.
     """
     ana = rec.get("analysis", {})
     pores = ana.get("pores")
@@ -202,6 +212,7 @@ def _structure_values(rec, gsd, elastic, modulus="elastic"):
     c = ana.get("contacts", {}).get("coordination")
     el = ana.get("elastic")
     sh = ana.get("shear")
+    g_aff = float(el.get("affine_shear_modulus", math.nan)) if isinstance(el, dict) else math.nan
     if modulus == "shear":
         if not isinstance(sh, dict) or "direction" not in sh:
             raise InvalidInputError("heterogeneity report: sweep.modulus = \"shear\" needs [analysis.shear] in the study")
@@ -223,10 +234,11 @@ def _structure_values(rec, gsd, elastic, modulus="elastic"):
                                        shear_stiffness=elastic["shear_stiffness"])
         et = elastic_tensor(net)
         g3 = np.asarray(et.shear_moduli, dtype=np.float64)
+        g_aff = float(et.affine_shear_modulus)
         src = "report (pp.mechanics.elastic_tensor)"
         if c is None:
             c = net.coordination
-    return a, b, float(c) if c is not None else float("nan"), float(g3.mean()), float(g3.std(ddof=0)), src
+    return a, b, float(c) if c is not None else float("nan"), float(g3.mean()), float(g3.std(ddof=0)), src, g_aff
 
 
 #: Words of the protocol kinds in set labels, and the option that tells a set of that kind apart
@@ -313,12 +325,15 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
     for folder, label, kind, vkey, v in groups:
         vals = []
         for rec, gsd in _records(folder):
-            a, b, c, g, gsd_sd, src = _structure_values(rec, gsd, elastic, modulus)
+            a, b, c, g, gsd_sd, src, g_aff = _structure_values(rec, gsd, elastic, modulus)
             sources.add(src)
+            rigid = bool(g > FLOPPY_FLOOR * g_aff) if math.isfinite(g_aff) else bool(g > 0)
+            if not rigid:  # a zero modulus: its round-off is not reported as a value
+                g, gsd_sd = 0.0, 0.0
             vals.append((a, b, c, g, gsd_sd))
             points.append({"set": label, "kind": kind, "parameter": vkey, "value": v, "index": rec["index"],
                            "a": a, "b": b, "C": c,
-                           "G_Pa": g, "G_sd_Pa": gsd_sd})
+                           "G_Pa": g, "G_sd_Pa": gsd_sd, "rigid": rigid})
         if not vals:
             continue
         arr = np.asarray(vals)
@@ -328,14 +343,16 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
         rows.append({"set": label, "kind": kind, "parameter": vkey, parameter.split(".")[-1]: v, "realizations": nr,
                      "a": float(arr[:, 0].mean()), "a_se": se(arr[:, 0]), "b": float(arr[:, 1].mean()),
                      "C": float(np.nanmean(arr[:, 2])), "C_se": se(arr[:, 2]),
-                     "G_MPa": float(arr[:, 3].mean()) * 1e-6, "G_sd_MPa": float(gall) * 1e-6})
+                     "G_MPa": float(arr[:, 3].mean()) * 1e-6, "G_sd_MPa": float(gall) * 1e-6,
+                     "floppy": sum(not p["rigid"] for p in points[-nr:])})
     if not points:
         raise InvalidInputError(f"heterogeneity report: no complete realization under {out}")
     a = np.array([p["a"] for p in points])
     g = np.array([p["G_Pa"] for p in points]) * 1e-6
     sd = np.array([p["G_sd_Pa"] for p in points]) * 1e-6
     fit = None
-    pos = g > 0  # structures without a rigid cluster (G'p = 0) lie below a0 and do not enter the fit
+    # structures without a rigid cluster (G'p = 0, FLOPPY_FLOOR) lie below a0 and do not enter the fit
+    pos = np.array([p["rigid"] for p in points], dtype=bool)
     dropped = int(np.count_nonzero(~pos))
     if np.count_nonzero(pos) >= 3 and np.ptp(a[pos]) > 0:
         sig = sd[pos] if np.all(sd[pos] > 0) else None
@@ -344,10 +361,11 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
     else:
         fit_note = "fewer than 3 structures with G'p > 0 and a range of a: no fit"
     if dropped:
-        fit_note += f"; {dropped} structure(s) with G'p = 0 left out of the fit"
+        fit_note += (f"; {dropped} floppy structure(s) (G'p below {FLOPPY_FLOOR:g} of the affine modulus: "
+                     f"G'p = 0) left out of the fit")
     files = {}
     key = parameter.split(".")[-1]
-    cols = ["set", key, "realizations", "a", "a_se", "b", "C", "C_se", "G_MPa", "G_sd_MPa"]
+    cols = ["set", key, "realizations", "a", "a_se", "b", "C", "C_se", "G_MPa", "G_sd_MPa", "floppy"]
     with atomic_path(rep / "table2.csv") as tmp:
         with open(tmp, "w") as fh:
             fh.write(",".join(cols) + "\n")
@@ -360,7 +378,7 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
         s = _seed_row(r["kind"], r["parameter"], r[key])
         sa = f"{s[1]:.3f} | {s[2]:.2f} | {s[3]:.2f} ± {s[4]:.2f}" if s else "– | – | –"
         lines.append(f"| {r['set']} | {r[key]} | {r['realizations']} | {r['a']:.3f} ± {r['a_se']:.3f} | {r['b']:.3f} | "
-                     f"{r['C']:.2f} | {r['G_MPa']:.3g} ± {r['G_sd_MPa']:.2g} | {sa} |")
+                     f"{r['C']:.2f} | {_g_cell(r)} | {sa} |")
     lines.append("")
     lines.append(f"G'p source: {', '.join(sorted(sources))}; bonds at epsilon = {elastic['epsilon']:g}, "
                  f"kn = {elastic['normal_stiffness']:g} N/m, ks = {elastic['shear_stiffness']:g} N/m.")
@@ -381,6 +399,14 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
     files["fit"] = rep / "fit.json"
     files.update(_plots(rep, points, fit, fmt))
     return files
+
+
+def _g_cell(row):
+    """The G'p cell of a Table 2 row: mean ± spread, and how many structures are floppy."""
+    if row["floppy"] == row["realizations"]:
+        return "0 (floppy)"
+    cell = f"{row['G_MPa']:.3g} ± {row['G_sd_MPa']:.2g}"
+    return cell + (f" ({row['floppy']} of {row['realizations']} floppy)" if row["floppy"] else "")
 
 
 def _plots(rep, points, fit, fmt):
