@@ -441,8 +441,8 @@ def _plots(rep, points, fit, fmt):
         fig.savefig(tmp, format=fmt, dpi=130)
     plt.close(fig)
     files["fig2"] = rep / f"fig2.{fmt}"
-    # Fig. 6: G'p against a with the fit
-    fig, ax = plt.subplots(figsize=(5, 4))
+    # Fig. 6: G'p against a with the fit (legend below the axes: it hid the most heterogeneous points)
+    fig, ax = plt.subplots(figsize=(5.5, 6))
     for s in sets:
         sel = [p for p in points if p["set"] == s]
         ax.errorbar([p["a"] for p in sel], [p["G_Pa"] * 1e-6 for p in sel], yerr=[p["G_sd_Pa"] * 1e-6 for p in sel],
@@ -465,7 +465,7 @@ def _plots(rep, points, fit, fmt):
     ax.set_ylabel("plateau storage modulus G'p (MPa)")
     ax.set_title("seed 003 Fig. 6: G'p against DOH (r0 = 0.25 µm, kn = 100 N/m);\n"
                  "bars: spread over the shear directions", fontsize=8)
-    ax.legend(fontsize=6)
+    ax.legend(fontsize=6, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2)
     fig.tight_layout()
     with atomic_path(rep / f"fig6.{fmt}") as tmp:
         fig.savefig(tmp, format=fmt, dpi=130)
