@@ -36,6 +36,9 @@ def register(app: typer.Typer) -> None:
                                                           help="Tangential bonds: rolling stiffness in J."),
         rolling_moment: Optional[float] = typer.Option(None, "--rolling-moment",
                                                        help="Tangential bonds: critical rolling moment in N m."),
+        hydrodynamics: str = typer.Option("free", "--hydrodynamics",
+                                          help="Pair mobility: free (free draining) or lubrication (Honig et al. "
+                                               "1971 correction of the relative normal motion of close pairs)."),
         time_step: Optional[float] = typer.Option(None, "--time-step", help="Time step in s."),
         max_time: Optional[float] = typer.Option(None, "--max-time", help="Simulated-time budget in s."),
         max_steps: Optional[int] = typer.Option(None, "--max-steps", help="Step budget."),
@@ -59,7 +62,7 @@ def register(app: typer.Typer) -> None:
                 viscosity=viscosity, hamaker=hamaker, ionic_strength=ionic_strength, debye_length=debye_length,
                 model=model, time_step=time_step, max_time=max_time, max_steps=max_steps, progress=progress,
                 bonds=bonds, sliding_stiffness=sliding_stiffness, rolling_stiffness=rolling_stiffness,
-                rolling_moment=rolling_moment,
+                rolling_moment=rolling_moment, hydrodynamics=hydrodynamics,
             )
         io.write(str(output), pk)
         bonds_path = Path(str(output) + ".bonds.json")

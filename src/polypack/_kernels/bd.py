@@ -26,6 +26,12 @@ with ``F`` the total force in units of ``kT/a``, followed by constraint projecti
 * ``P_OVERLAP_ONLY = 1``: the sweeps only remove overlaps (no capture, no tether);
   used to finish a gel whose bond shells cannot all be satisfied at once.
 * Optional harmonic trap ``-P_TRAP_K (x - L/2)`` per coordinate (validation).
+* ``P_LUB_RANGE > 0``: lubrication-corrected pair mobility (:func:`_translate`): the
+  relative normal mobility of every *unbonded* listed pair with gap ``u = h/a <
+  P_LUB_RANGE`` is divided by the Honig, Roebersen & Wiersema (1971) factor
+  ``β(u) = (6u² + 13u + 2)/(6u² + 4u)`` (tapered to 1 at the range,
+  :func:`lubrication_beta`); mobility ``M = S²``, ``S = I - Σ_p k_p b_p b_pᵀ``, noise
+  ``sqrt(2 dt) S ξ`` and the Itô drift ``(∇·M) dt`` (:func:`lubrication_terms`).
 
 * :func:`run_rigid`: the same forces, but bonded clusters are rigid bodies
   (Brownian cluster dynamics with free-draining friction; see its docstring).
@@ -67,7 +73,12 @@ P_K_SLIDE = 12  # run_tangential: sliding (anchor) spring stiffness, kT / a^2
 P_K_ROLL = 13  # run_tangential: rolling stiffness, kT (U = k_r |xi|^2 / 2, xi dimensionless)
 P_ROLL_MAX = 14  # run_tangential: largest elastic rolling displacement |xi| (yield beyond), inf = none
 P_ROTATE = 15  # run_tangential: 1 integrates rotations even without tangential springs (validation)
-N_PARAMS = 16
+P_LUB_RANGE = 16  # lubrication range u_c (gap / a) of the pair mobility; 0 = free draining
+P_LUB_NO_DRIFT = 17  # 1 drops the Ito drift (div M) dt of the lubricated step (validation: a wrong scheme)
+N_PARAMS = 18
+
+#: Gap (radii) below which the Honig factor is held constant (its derivative set to zero).
+LUB_U_FLOOR = 1e-4
 
 # float state slots
 S_TIME = 0
@@ -237,12 +248,13 @@ def _project(pos, box, params, state, istate, pi, pj, flag, bonds, adj, deg):
 
 
 @njit(cache=True)
-def _pair_force(h, table, lo, inv_dh, cap_drift, dt):
+def _pair_force(h, table, lo, inv_dh, cap_drift, dt, uc=0.0):
     """Central DLVO pair force (kT/a, positive = repulsive) at surface separation ``h``.
 
     Linear interpolation of ``table`` on the grid ``lo + k / inv_dh`` (clamped at both
     ends); with ``cap_drift > 0`` an attraction is capped so that the pair's gap closes
-    by at most ``cap_drift * h`` in one step of length ``dt`` (module docstring).
+    by at most ``cap_drift * h`` in one step of length ``dt`` (module docstring), at the
+    pair's relative mobility ``2 / β_eff(h)`` when lubricated (``uc > 0``).
     """
     ntab = table.shape[0]
     t = (h - lo) * inv_dh
@@ -257,6 +269,8 @@ def _pair_force(h, table, lo, inv_dh, cap_drift, dt):
     if cap_drift > 0.0 and f < 0.0 and dt > 0.0:
         # both spheres move by |f| dt: the gap closes by 2 |f| dt at most cap_drift * h
         fmax = cap_drift * max(h, 0.0) / (2.0 * dt)
+        if uc > 0.0:
+            fmax *= lubrication_beta(h, uc)[0]
         if -f > fmax:
             f = -fmax
     return f
@@ -275,6 +289,7 @@ def _dlvo_forces(pos, box, params, pi, pj, flag, table, force, lab, skip_interna
     cap_drift = params[P_CAP_DRIFT]
     lo = params[P_TAB_LO]
     inv_dh = 1.0 / params[P_TAB_DH]
+    uc = params[P_LUB_RANGE] if not skip_internal else 0.0
     vir = 0.0
     for k in range(pi.shape[0]):
         if flag[k]:
@@ -290,7 +305,7 @@ def _dlvo_forces(pos, box, params, pi, pj, flag, table, force, lab, skip_interna
         if r2 >= rc2:
             continue
         r = np.sqrt(r2)
-        f = _pair_force(r - 2.0, table, lo, inv_dh, cap_drift, dt)
+        f = _pair_force(r - 2.0, table, lo, inv_dh, cap_drift, dt, uc)
         vir += f * r
         fr = f / r
         force[i, 0] -= fr * dx
@@ -340,6 +355,223 @@ def _internal(pos, box, i, j, lab):
         if abs(d - min_image(d, box[c])) > 0.5 * box[c]:
             return False
     return True
+
+
+# ----------------------------------------------------------------------------------------
+# Translation step: free draining or lubrication-corrected pair mobility
+# ----------------------------------------------------------------------------------------
+#
+# Mobility (reduced, sphere mobility 1):  M = S S,  S = I - sum_p k_p b_p b_p^T  over the
+# lubricated pairs p = (i, j) (unbonded, gap u = r - 2 < u_c), b_p = (e_i - e_j) (x) n_p,
+# n_p = (x_j - x_i) / r_p, k_p = (1 - beta_p^(-1/2)) / 2.  For an isolated pair S has the
+# eigenvalue 1 - 2 k_p = beta^(-1/2) on b_p and 1 elsewhere, so M divides the relative
+# normal mobility by beta (Honig et al. 1971) and leaves the centre of mass and the
+# tangential relative motion free draining; M is positive semi-definite for any set of
+# pairs.  One Euler-Maruyama (Ito) step is
+#     dx = M F dt + sqrt(2 dt) S xi + (div M) dt,
+# covariance 2 dt S S^T = 2 dt M (fluctuation-dissipation).  div M, derived in
+# docs/brownian.md: with c_p = 2 k_p (1 - k_p) = (1 - 1/beta_p) / 2,
+#   pair terms    +(2 c_p' + 4 c_p / r_p) n_p on i, the opposite on j;
+#   cross terms   for every particle m and ordered pairs p != q through m, with
+#                 s = +1 (first) / -1 (second) the side of m in each pair, sigma = s_p s_q,
+#                 c = n_p . n_q:
+#                 g = -k_p' k_q c^2 - 2 sigma k_p k_q' c - k_p k_q (1 - c^2) / r_p
+#                     - 4 sigma k_p k_q c / r_q,
+#                 w = g n_p - k_p k_q c (n_q - c n_p) / r_p,   +w on i_p, -w on j_p.
+# (' = d/dr.)  The kT factor is 1; noise-free steps (P_NOISE = 0) drop the thermal drift.
+
+
+@njit(cache=True)
+def lubrication_beta(u, uc):
+    """Honig factor ``β_eff(u)`` and ``dβ_eff/du`` of the implemented pair mobility.
+
+    ``β(u) = (6u² + 13u + 2) / (6u² + 4u)`` (Honig, Roebersen & Wiersema 1971; ``u`` =
+    surface gap / radius) times a smooth taper of ``β - 1``: ``β_eff = 1 + (β - 1) s``,
+    ``s = 1`` for ``u <= uc/2``, ``s = 1 - t² (3 - 2t)`` with ``t = 2u/uc - 1`` up to
+    ``uc`` and 0 beyond (``uc <= 0``: ``β_eff = 1``).  Below ``LUB_U_FLOOR`` the factor is
+    held at its floor value.
+    """
+    if uc <= 0.0 or u >= uc:
+        return 1.0, 0.0
+    uu = max(u, LUB_U_FLOOR)
+    den = 6.0 * uu * uu + 4.0 * uu
+    b = (6.0 * uu * uu + 13.0 * uu + 2.0) / den
+    db = -(54.0 * uu * uu + 24.0 * uu + 8.0) / (den * den) if u > LUB_U_FLOOR else 0.0
+    x = u / uc
+    if x <= 0.5:
+        return b, db
+    t = 2.0 * x - 1.0
+    sfac = 1.0 - t * t * (3.0 - 2.0 * t)
+    dsfac = -6.0 * t * (1.0 - t) * 2.0 / uc
+    return 1.0 + (b - 1.0) * sfac, db * sfac + (b - 1.0) * dsfac
+
+
+@njit(cache=True)
+def _lub_collect(pos, box, pi, pj, flag, uc, lp, lv, lr, lk, ldk, lc, ldc):
+    """Fill the lubricated pairs (unbonded listed pairs with gap < uc); returns their count."""
+    m = 0
+    lim = 2.0 + uc
+    for k in range(pi.shape[0]):
+        if flag[k]:
+            continue
+        i = pi[k]
+        j = pj[k]
+        dx = min_image(pos[j, 0] - pos[i, 0], box[0])
+        dy = min_image(pos[j, 1] - pos[i, 1], box[1])
+        dz = min_image(pos[j, 2] - pos[i, 2], box[2])
+        r2 = dx * dx + dy * dy + dz * dz
+        if r2 >= lim * lim:
+            continue
+        r = max(np.sqrt(r2), 1e-300)
+        b, db = lubrication_beta(r - 2.0, uc)
+        if b <= 1.0:
+            continue
+        lp[m, 0] = i
+        lp[m, 1] = j
+        lv[m, 0] = dx / r
+        lv[m, 1] = dy / r
+        lv[m, 2] = dz / r
+        lr[m] = r
+        rb = 1.0 / np.sqrt(b)
+        lk[m] = 0.5 * (1.0 - rb)
+        ldk[m] = 0.25 * rb * rb * rb * db
+        lc[m] = 0.5 * (1.0 - 1.0 / b)
+        ldc[m] = 0.5 * db / (b * b)
+        m += 1
+    return m
+
+
+@njit(cache=True)
+def _lub_pairs(pos, box, pi, pj, flag, uc):
+    """Arrays of :func:`_lub_collect` sized for the listed pairs; returns ``(m, lp, lv, lr, lk, ldk, lc, ldc)``."""
+    npair = pi.shape[0]
+    lp = np.empty((npair, 2), np.int64)
+    lv = np.empty((npair, 3))
+    lr = np.empty(npair)
+    lk = np.empty(npair)
+    ldk = np.empty(npair)
+    lc = np.empty(npair)
+    ldc = np.empty(npair)
+    m = _lub_collect(pos, box, pi, pj, flag, uc, lp, lv, lr, lk, ldk, lc, ldc)
+    return m, lp, lv, lr, lk, ldk, lc, ldc
+
+
+@njit(cache=True)
+def _lub_apply_s(m, lp, lv, lk, v, out):
+    """``out = S v`` (``out`` may not alias ``v``)."""
+    for i in range(v.shape[0]):
+        for c in range(3):
+            out[i, c] = v[i, c]
+    for p in range(m):
+        i = lp[p, 0]
+        j = lp[p, 1]
+        bv = 0.0
+        for c in range(3):
+            bv += lv[p, c] * (v[i, c] - v[j, c])
+        s = lk[p] * bv
+        for c in range(3):
+            out[i, c] -= s * lv[p, c]
+            out[j, c] += s * lv[p, c]
+
+
+@njit(cache=True)
+def _lub_divergence(n, m, lp, lv, lr, lk, ldk, lc, ldc, div):
+    """``div = ∇·M`` of the lubricated mobility (formulas above :func:`lubrication_beta`)."""
+    for i in range(n):
+        for c in range(3):
+            div[i, c] = 0.0
+    cnt = np.zeros(n + 1, np.int64)
+    for p in range(m):
+        w = 2.0 * ldc[p] + 4.0 * lc[p] / lr[p]
+        i = lp[p, 0]
+        j = lp[p, 1]
+        for c in range(3):
+            div[i, c] += w * lv[p, c]
+            div[j, c] -= w * lv[p, c]
+        cnt[i + 1] += 1
+        cnt[j + 1] += 1
+    for i in range(n):
+        cnt[i + 1] += cnt[i]
+    ent = np.empty(2 * m, np.int64)
+    side = np.empty(2 * m, np.float64)
+    fill = cnt[:n].copy()
+    for p in range(m):
+        for e in range(2):
+            q = lp[p, e]
+            ent[fill[q]] = p
+            side[fill[q]] = 1.0 if e == 0 else -1.0
+            fill[q] += 1
+    w = np.empty(3)
+    for x in range(n):
+        for a in range(cnt[x], cnt[x + 1]):
+            p = ent[a]
+            for b in range(cnt[x], cnt[x + 1]):
+                if b == a:
+                    continue
+                q = ent[b]
+                sg = side[a] * side[b]
+                cc = lv[p, 0] * lv[q, 0] + lv[p, 1] * lv[q, 1] + lv[p, 2] * lv[q, 2]
+                kk = lk[p] * lk[q]
+                g = (-ldk[p] * lk[q] * cc * cc - 2.0 * sg * lk[p] * ldk[q] * cc - kk * (1.0 - cc * cc) / lr[p]
+                     - 4.0 * sg * kk * cc / lr[q])
+                for c in range(3):
+                    w[c] = g * lv[p, c] - kk * cc * (lv[q, c] - cc * lv[p, c]) / lr[p]
+                i = lp[p, 0]
+                j = lp[p, 1]
+                for c in range(3):
+                    div[i, c] += w[c]
+                    div[j, c] -= w[c]
+
+
+@njit(cache=True)
+def lubrication_terms(pos, box, uc, pi, pj, flag, v, sv, div):
+    """``sv = S v`` and ``div = ∇·M`` for the pairs ``(pi, pj)`` (``flag`` 1 = bonded, skipped).
+
+    Validation entry point of the lubricated mobility (the step uses the same helpers).
+    Returns the number of lubricated pairs.
+    """
+    m, lp, lv, lr, lk, ldk, lc, ldc = _lub_pairs(pos, box, pi, pj, flag, uc)
+    _lub_apply_s(m, lp, lv, lk, v, sv)
+    _lub_divergence(pos.shape[0], m, lp, lv, lr, lk, ldk, lc, ldc, div)
+    return m
+
+
+@njit(cache=True)
+def _translate(pos, box, params, pi, pj, flag, force, rng, state):
+    """One translation step of every centre: free draining, or with the lubricated mobility."""
+    n = pos.shape[0]
+    dt = params[P_DT]
+    noise = params[P_NOISE]
+    uc = params[P_LUB_RANGE]
+    if uc <= 0.0 or pi.shape[0] == 0:
+        for i in range(n):
+            for c in range(3):
+                x = pos[i, c] + force[i, c] * dt
+                if noise != 0.0:
+                    x += noise * next_normal(rng, state)
+                pos[i, c] = x
+        return
+    m, lp, lv, lr, lk, ldk, lc, ldc = _lub_pairs(pos, box, pi, pj, flag, uc)
+    a = np.empty((n, 3))
+    b = np.empty((n, 3))
+    _lub_apply_s(m, lp, lv, lk, force, a)
+    _lub_apply_s(m, lp, lv, lk, a, b)  # b = M F
+    for i in range(n):
+        for c in range(3):
+            pos[i, c] += b[i, c] * dt
+    if noise == 0.0:
+        return
+    for i in range(n):
+        for c in range(3):
+            a[i, c] = next_normal(rng, state)
+    _lub_apply_s(m, lp, lv, lk, a, b)  # b = S xi
+    if params[P_LUB_NO_DRIFT] != 0.0:
+        a[:, :] = 0.0
+    else:
+        _lub_divergence(n, m, lp, lv, lr, lk, ldk, lc, ldc, a)
+    for i in range(n):
+        for c in range(3):
+            pos[i, c] += noise * b[i, c] + a[i, c] * dt
 
 
 @njit(cache=True)
@@ -392,12 +624,7 @@ def run(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rng, nst
             _trap_forces(pos, box, ktrap, force)
         state[S_VIRIAL] += vir
         state[S_VIRIAL_STEPS] += 1.0
-        for i in range(n):
-            for c in range(3):
-                x = pos[i, c] + force[i, c] * dt
-                if noise != 0.0:
-                    x += noise * next_normal(rng, state)
-                pos[i, c] = x
+        _translate(pos, box, params, pi, pj, flag, force, rng, state)
         if bonding:
             status = _project(pos, box, params, state, istate, pi, pj, flag, bonds, adj, deg)
             if status != Status.OK:
@@ -1068,12 +1295,7 @@ def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncel
             _trap_forces(pos, box, ktrap, force)
         state[S_VIRIAL] += vir
         state[S_VIRIAL_STEPS] += 1.0
-        for i in range(n):
-            for c in range(3):
-                x = pos[i, c] + force[i, c] * dt
-                if noise != 0.0:
-                    x += noise * next_normal(rng, state)
-                pos[i, c] = x
+        _translate(pos, box, params, pi, pj, flag, force, rng, state)
         if rotate:
             for i in range(n):
                 tx = SPHERE_ROT_MOBILITY * torque[i, 0] * dt

@@ -215,6 +215,11 @@ class BrownianOptions:
     sliding_stiffness: float = option(None, v.non_negative, "tangential bonds: sliding spring stiffness, N/m", unit="N/m")
     rolling_stiffness: float = option(None, v.non_negative, "tangential bonds: rolling stiffness, J", unit="J")
     rolling_moment: float = option(None, v.positive, "tangential bonds: critical rolling moment, N m", unit="N m")
+    hydrodynamics: str = option(None, v.choice("free", "lubrication"),
+                                "pair mobility: free draining (default, the seed's model) or with the Honig et al. "
+                                "(1971) lubrication correction of the relative normal motion of close pairs")
+    lubrication_range: float = option(None, v.positive, "lubrication: gap beyond which pairs are free draining, m "
+                                      "(cutoff - 2a)", unit="m")
 
 
 @dataclass(frozen=True)

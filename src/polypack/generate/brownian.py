@@ -52,6 +52,17 @@ a bond constrains is the bond model ``bonds``:
   (the stiffest the time step integrates stably, see :func:`brownian`): real
   solid contacts are stiffer still.  Kernel :func:`polypack._kernels.bd.run_tangential`.
 
+Hydrodynamics
+-------------
+``hydrodynamics="free"`` (default) is the free-draining dynamics above, the seed's
+"frictional Stokes' drag force and a random Brownian force" (§2.2 of
+003_873b69fc71c74cf6.txt).  ``"lubrication"`` divides the relative normal mobility of
+every unbonded pair closer than ``lubrication_range`` by Honig, Roebersen & Wiersema's
+``β(u) = (6u² + 13u + 2)/(6u² + 4u)`` (u = gap/a, tapered to 1 at the range): mobility
+``M = S²`` with ``S = I - Σ_p k_p b_p b_pᵀ``, ``k_p = (1 - β_p^(-1/2))/2``, Brownian
+displacements ``sqrt(2 Δt) S ξ`` (covariance ``2 M Δt``) and the Itô drift ``(∇·M) Δt``
+(derivation in docs/brownian.md; kernel :func:`polypack._kernels.bd._translate`).
+
 Stopping rule
 -------------
 Every ``record_interval`` the coordination (2 bonds / N), the number of clusters and
@@ -76,6 +87,8 @@ Pantina, J. P. & Furst, E. M., Phys. Rev. Lett. 94, 138301 (2005) (bonds between
 colloidal particles support bending moments).
 Becker, V. & Briesen, H., arXiv:0808.3108 (2008) (a tangential force model for
 bonded colloidal particles).
+Honig, E. P., Roebersen, G. J. & Wiersema, P. H., J. Colloid Interface Sci. 36, 97 (1971)
+(hydrodynamic correction of the relative diffusion of two spheres).
 """
 
 from __future__ import annotations
@@ -91,12 +104,18 @@ from ..errors import InfeasibleError, InvalidInputError, OverlapError
 from ..packing import Packing
 from .dlvo import DLVOParameters, _terms, dlvo_extrema, dlvo_parameters
 
-__all__ = ["brownian", "BrownianSimulation", "brownian_bonds", "BOND_MODELS", "MAX_STEP_FRACTION",
-           "OVERLAP_TOLERANCE"]
+__all__ = ["brownian", "BrownianSimulation", "brownian_bonds", "BOND_MODELS", "HYDRODYNAMICS",
+           "MAX_STEP_FRACTION", "OVERLAP_TOLERANCE", "relative_mobility"]
 
 #: Bond models: ``"rigid"`` (bonded spheres form rigid clusters: Brownian cluster
 #: dynamics, no rolling or sliding) and ``"flexible"`` (central bonds: free rolling).
 BOND_MODELS = ("rigid", "flexible", "tangential")
+
+#: Hydrodynamic models: ``"free"`` (free draining, Ermak–McCammon with Stokes drag: each
+#: sphere has mobility 1/(6πηa), no hydrodynamic interaction) and ``"lubrication"``
+#: (free draining plus the Honig, Roebersen & Wiersema (1971) correction of the relative
+#: normal mobility of every unbonded close pair; see :func:`relative_mobility`).
+HYDRODYNAMICS = ("free", "lubrication")
 
 #: Ratio of the critical rolling moment to ``a`` times the adhesion force in the default of
 #: ``bonds="tangential"``: rolling-friction forces between silica microspheres are about 100
@@ -118,6 +137,45 @@ DEFAULT_STEP_FRACTION = 0.2
 #: Largest relative overlap ``1 - d_ij / (2a)`` tolerated in a returned gel (the final
 #: overlap removal stops when no correction exceeds this many radii).
 OVERLAP_TOLERANCE = 1e-6
+
+
+def relative_mobility(h, radius=None, lubrication_range=None):
+    """Relative normal mobility of an isolated pair under ``hydrodynamics="lubrication"``, in units of 2 D0.
+
+    ``1 / β_eff(h / a)`` with ``β(u) = (6u² + 13u + 2) / (6u² + 4u)`` (Honig, Roebersen &
+    Wiersema, J. Colloid Interface Sci. 36, 97 (1971); ``u`` = surface gap / radius),
+    ``β - 1`` tapered smoothly to 0 between half the range and the range
+    (:func:`polypack._kernels.bd.lubrication_beta`).  The free-draining value is 1.
+
+    Parameters
+    ----------
+    h : float or array_like
+        Surface separations (m).
+    radius : float, optional
+        Sphere radius (m); default the DLVO default 0.25 µm.
+    lubrication_range : float, optional
+        Gap (m) beyond which the pair is free draining; default ``cutoff - 2a`` with the
+        default DLVO cutoff 2.5 a, i.e. ``a / 2``; ``inf``: Honig's β at every gap.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``1 / β_eff`` (the relative normal diffusion coefficient is ``2 D0 / β_eff``).
+    """
+    from .._kernels import bd
+
+    a = dlvo_parameters(0.0).radius if radius is None else _check_positive("radius", radius)
+    if lubrication_range is None:
+        uc = 0.5
+    elif lubrication_range == math.inf:
+        uc = math.inf
+    else:
+        uc = _check_positive("lubrication_range", lubrication_range) / a
+    u = np.asarray(h, dtype=np.float64) / a
+    out = np.empty(u.shape)
+    for k, x in enumerate(u.flat):
+        out.flat[k] = 1.0 / bd.lubrication_beta(float(x), uc if math.isfinite(uc) else 1e300)[0]
+    return out
 
 
 def _check_positive(name, value, allow_zero=False):
@@ -171,12 +229,19 @@ class BrownianSimulation:
         Bond model (see :func:`brownian`); ignored when ``bond_width`` is None.
     sliding_stiffness, rolling_stiffness, rolling_moment
         Tangential bond springs of ``bonds="tangential"`` (see :func:`brownian`).
+    hydrodynamics : {"free", "lubrication"}
+        Pair mobility (see :func:`brownian`); ``"lubrication"`` is refused with
+        ``bonds="rigid"``.
+    lubrication_range : float, optional
+        Gap (m) out to which ``"lubrication"`` corrects a pair; default and maximum
+        ``cutoff - 2a``.
     """
 
     def __init__(self, positions, box, parameters: DLVOParameters, *, time_step=None, bond_width=1e-9,
                  drift_cap=0.25, cutoff=None, skin=0.4, trap_stiffness=0.0, seed=None,
                  max_bonds_per_particle=24, table_points=8192, max_sweeps=4, projection_tolerance=1e-7,
-                 bonds="flexible", sliding_stiffness=None, rolling_stiffness=None, rolling_moment=None):
+                 bonds="flexible", sliding_stiffness=None, rolling_stiffness=None, rolling_moment=None,
+                 hydrodynamics="free", lubrication_range=None):
         from .._kernels import bd
         from ..neighbors import choose_cells
 
@@ -232,6 +297,23 @@ class BrownianSimulation:
         if bonds not in BOND_MODELS:
             raise InvalidInputError(f"bonds={bonds!r}: must be one of {', '.join(map(repr, BOND_MODELS))}")
         self.bond_model = bonds
+        if hydrodynamics not in HYDRODYNAMICS:
+            raise InvalidInputError(
+                f"hydrodynamics={hydrodynamics!r}: must be one of {', '.join(map(repr, HYDRODYNAMICS))}")
+        if hydrodynamics == "lubrication" and bonds == "rigid" and bond_width is not None:
+            raise InvalidInputError('hydrodynamics="lubrication" is not implemented for bonds="rigid"; '
+                                    'use bonds="flexible" or "tangential"')
+        self.hydrodynamics = hydrodynamics
+        self.lubrication_range = None
+        if hydrodynamics == "lubrication":
+            lr = (rc - 2.0) * a if lubrication_range is None else _check_positive("lubrication_range",
+                                                                                  lubrication_range)
+            if lr > (rc - 2.0) * a * (1 + 1e-12):
+                raise InvalidInputError(
+                    f"lubrication_range={lr:g} m exceeds cutoff - 2a = {(rc - 2.0) * a:g} m; raise cutoff")
+            self.lubrication_range = lr
+        elif lubrication_range is not None:
+            raise InvalidInputError('lubrication_range is only used with hydrodynamics="lubrication"')
         cap = _check_positive("drift_cap", drift_cap, allow_zero=True)
         if cap >= 1.0:
             raise InvalidInputError(f"drift_cap={drift_cap!r}: must be in [0, 1)")
@@ -245,6 +327,7 @@ class BrownianSimulation:
         params[bd.P_CAP_DRIFT] = cap
         params[bd.P_SWEEPS] = _check_int("max_sweeps", max_sweeps, 1)
         params[bd.P_PROJ_TOL] = _check_positive("projection_tolerance", projection_tolerance)
+        params[bd.P_LUB_RANGE] = self.lubrication_range / a if self.lubrication_range is not None else 0.0
         if bonds == "rigid":
             # rigid translations remove an overlap in one move: resolve to round-off level, since an
             # overlap left at capture is frozen into the rigid cluster for good
@@ -287,7 +370,7 @@ class BrownianSimulation:
         self._anchors = np.zeros((self._bonds.shape[0], 6)) if bonds == "tangential" else np.zeros((1, 6))
         self._orient = np.zeros((n, 3))
         self._orient[:, 2] = 1.0
-        if p.hamaker == 0.0 and p.surface_potential == 0.0 and width is None:
+        if p.hamaker == 0.0 and p.surface_potential == 0.0 and width is None and hydrodynamics == "free":
             params[bd.P_R_CUT] = 0.0  # independent spheres: no neighbour list
         self._ncell = choose_cells(self._box, n, rc + skin)
         self._seed = as_seed_sequence(seed)
@@ -537,6 +620,8 @@ def brownian(
     sliding_stiffness=None,
     rolling_stiffness=None,
     rolling_moment=None,
+    hydrodynamics="free",
+    lubrication_range=None,
 ) -> Packing:
     """Coagulated colloidal gel by Brownian dynamics with DLVO forces.
 
@@ -595,6 +680,17 @@ def brownian(
         plastic (``inf``: elastic only).  Default ``a F_adh / 100`` (Heim et al.
         1999) with ``F_adh = A a / (12 h_min²)`` the model's van der Waals force at
         its minimum separation.
+    hydrodynamics : {"free", "lubrication"}
+        ``"free"`` (default): free-draining Ermak–McCammon dynamics with Stokes drag,
+        the seed's model ("the frictional Stokes' drag force and a random Brownian
+        force", §2.2 of 003_873b69fc71c74cf6.txt).  ``"lubrication"``: the relative
+        normal mobility of every unbonded pair closer than ``lubrication_range`` is
+        divided by Honig's ``β(h/a)`` (:func:`relative_mobility`), with noise and Itô
+        drift consistent with it (mobility ``M = S²``; docs/brownian.md).  Not with
+        ``bonds="rigid"``.
+    lubrication_range : float, optional
+        ``"lubrication"``: gap (m) beyond which pairs are free draining; default and
+        maximum ``cutoff - 2a`` (``a/2`` with the default cutoff).
     cutoff : float, optional
         Centre-distance cutoff of the DLVO force (m), default 2.5 a.
     record_interval : float, optional
@@ -666,7 +762,8 @@ def brownian(
     pos0 = _initial_positions(n, a, box_len, 2.0 * p.debye_length, s_init)
     sim = BrownianSimulation(pos0, box_len, p, time_step=time_step, bond_width=bond_width, cutoff=cutoff,
                              seed=s_noise, bonds=bonds, sliding_stiffness=sliding_stiffness,
-                             rolling_stiffness=rolling_stiffness, rolling_moment=rolling_moment)
+                             rolling_stiffness=rolling_stiffness, rolling_moment=rolling_moment,
+                             hydrodynamics=hydrodynamics, lubrication_range=lubrication_range)
     dt = sim.time_step
     steps_per_record = max(1, int(round(record_interval / dt)))
     window_records = max(1, int(round(stable_window / (steps_per_record * dt))))
@@ -735,6 +832,8 @@ def brownian(
             "rms_step_debye": sim.rms_step / p.debye_length,
             "bond_width": sim.bond_width,
             "bonds": sim.bond_model,
+            "hydrodynamics": sim.hydrodynamics,
+            "lubrication_range": sim.lubrication_range,
             "frozen_clusters": sim.frozen_clusters,
             "tangential": sim.tangential,
             "final_overlap_residual": residual,

@@ -35,7 +35,8 @@ __all__ = ["run_brownian", "run_deposit", "check_brownian", "preflight_brownian"
 BROWNIAN_KEYS = ("radius", "temperature", "viscosity", "relative_permittivity", "hamaker", "ionic_strength",
                  "debye_length", "minimum_separation", "model", "time_step", "bond_width", "cutoff",
                  "record_interval", "stable_window", "coordination_tolerance", "cluster_tolerance", "min_time",
-                 "max_time", "max_steps", "bonds", "sliding_stiffness", "rolling_stiffness", "rolling_moment")
+                 "max_time", "max_steps", "bonds", "sliding_stiffness", "rolling_stiffness", "rolling_moment",
+                 "hydrodynamics", "lubrication_range")
 
 _PHYSICAL = ("radius", "temperature", "viscosity", "relative_permittivity", "hamaker", "ionic_strength",
              "debye_length", "minimum_separation", "model")
