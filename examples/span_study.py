@@ -38,7 +38,7 @@ SHAPE_NAMES = {
 SNAPSHOT_SPANS = (0.02, 0.42, 0.97)
 
 
-def one_point(a, b, span, min_total, max_total, seed, n_rep, keep_pack=False):
+def one_point(a, b, span, min_total, max_total, seed, n_rep, keep_pack=False, floor_rule="centred"):
     """Size set + ``n_rep`` depositions of one (a, b, s) point; returns a dict of results."""
     import polypack as pp
     from polypack.errors import InfeasibleError, InvalidInputError
@@ -55,7 +55,7 @@ def one_point(a, b, span, min_total, max_total, seed, n_rep, keep_pack=False):
     rhos, zs, shares, t = [], [], [], time.perf_counter()
     packs = []
     for child in ss.spawn(n_rep):
-        pk = pp.deposit(sizes, boundary="periodic", seed=child, progress=False)
+        pk = pp.deposit(sizes, boundary="periodic", seed=child, progress=False, floor_rule=floor_rule)
         try:
             st = pp.analysis.DepositStatistics().compute(pk)
         except InvalidInputError:
@@ -140,6 +140,8 @@ def main(argv=None):
     p.add_argument("--workers", type=int, default=1)
     p.add_argument("--seed", type=int, default=2007)
     p.add_argument("--out", default="span_study_out")
+    p.add_argument("--floor-rule", default="centred", choices=("centred", "left"),
+                   help="bare-floor rule of pp.deposit (centred: LMGC90's, the default; docs/deposition.md)")
     args = p.parse_args(argv)
     if args.reduced:
         spans = [0.02, 0.2, 0.42, 0.7, 0.97]
@@ -157,7 +159,7 @@ def main(argv=None):
         futs = []
         for a, b, s in jobs:
             keep = (a, b) == (1, 1) and any(abs(s - v) < 1e-9 for v in SNAPSHOT_SPANS)
-            call = (one_point, a, b, s, args.min_total, args.max_total, args.seed, args.repeats, keep)
+            call = (one_point, a, b, s, args.min_total, args.max_total, args.seed, args.repeats, keep, args.floor_rule)
             futs.append(pool.submit(*call) if pool else call)
         for f in futs:
             row, pk = f.result() if pool else f[0](*f[1:])

@@ -26,6 +26,9 @@ def register(app: typer.Typer) -> None:
         width: Optional[float] = typer.Option(None, "--width", help="Box width (default: a roughly square deposit)."),
         boundary: str = typer.Option("periodic", "--boundary", help="'periodic' or 'walls' along x."),
         order: str = typer.Option("random", "--order", help="'random' or 'given' deposition order."),
+        floor_rule: str = typer.Option(
+            "centred", "--floor-rule", help="Bare floor: 'centred' (midpoint of the leftmost bare stretch, as "
+            "LMGC90) or 'left' (its leftmost point: a touching first row)."),
         seed: Optional[int] = typer.Option(None, "--seed", help="Random seed (recorded in the output)."),
         output: Optional[Path] = typer.Option(None, "--output", "-o", help="Output file (.gsd, .xyz, .csv, .vtp)."),
         progress: Optional[bool] = typer.Option(None, "--progress/--no-progress", help="Progress bar."),
@@ -57,8 +60,10 @@ def register(app: typer.Typer) -> None:
             src = np.full(n, float(radius))
         else:
             raise InvalidInputError("give a size-set file, --span (CB model) or --n (equal disks)")
-        pk = pp.deposit(src, width=width, boundary=boundary, order=order, seed=seed, progress=progress)
-        msg = f"deposited N={pk.n} box={pk.box[0]:.6g}x{pk.box[1]:.6g} boundary={boundary} min_gap={pk.min_gap():.3e}"
+        pk = pp.deposit(src, width=width, boundary=boundary, order=order, seed=seed, progress=progress,
+                        floor_rule=floor_rule)
+        msg = (f"deposited N={pk.n} box={pk.box[0]:.6g}x{pk.box[1]:.6g} boundary={boundary} floor_rule={floor_rule} "
+               f"min_gap={pk.min_gap():.3e}")
         try:
             st = pp.analysis.DepositStatistics().compute(pk)
             sh = st.contact_shares

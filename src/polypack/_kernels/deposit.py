@@ -35,8 +35,10 @@ the overhang), the disk goes to the lowest *wedge*: an intersection of the dilat
 of a disk below and a disk above the new centre, in equilibrium under gravity on the two
 contacts, with no other disk above it.
 **Tie rule**: candidates whose heights differ by at most ``tol * r`` are equal; the
-leftmost (smallest ``x`` in ``[0, W)``) wins, so a bare floor fills from the left wall
-(from ``x = 0`` when periodic).
+leftmost (smallest ``x`` in ``[0, W)``) wins, so under ``FLOOR_LEFT`` a bare floor fills from
+the left wall (from ``x = 0`` when periodic); ``FLOOR_CENTRED`` (the default of
+:func:`polypack.deposit`) puts a disk that reaches bare floor at the midpoint of the leftmost
+bare stretch instead (:func:`_floor_centred`).
 
 Surface structure
 -----------------

@@ -231,7 +231,7 @@ class DepositOptions:
     order: str = option("random", v.choice("random", "given"), "deposition order: random (from the seed) or as sized")
     tolerance: float = option(None, v.positive, "relative tolerance of contacts and ties (<= 1e-3)")
     floor_rule: str = option(None, v.choice("left", "centred"),
-                             "2D bare floor: leftmost point (left, default) or midpoint (centred, LMGC90) of the leftmost bare stretch")
+                             "2D bare floor: midpoint (centred, the default, as LMGC90) or leftmost point (left) of the leftmost bare stretch")
 
 
 _P = "polypack.generate.protocols:"

@@ -17,10 +17,15 @@ from .._util import as_seed_sequence, progress_bar, rng_from, seed_record
 from ..errors import InvalidInputError, OverlapError
 from ..packing import Packing
 
-__all__ = ["deposit", "deposit_arrays", "deposit_arrays_3d", "DEFAULT_TOLERANCE", "DEFAULT_FRACTION_GUESS"]
+__all__ = ["deposit", "deposit_arrays", "deposit_arrays_3d", "DEFAULT_TOLERANCE", "DEFAULT_FRACTION_GUESS",
+           "DEFAULT_FLOOR_RULE"]
 
 DEFAULT_TOLERANCE = 1e-10
 """Relative tolerance of the kernel's contact tests and tie rule (heights equal within ``tol * r``)."""
+
+DEFAULT_FLOOR_RULE = "centred"
+"""Bare-floor rule of 2D deposits: the midpoint of the leftmost bare stretch, as LMGC90's ``deposit2D``
+(the deposition code of the seed's group).  Why, and what it implies for ρ(s < 0.05): docs/deposition.md."""
 
 DEFAULT_FRACTION_GUESS = 0.82
 """Packing fraction used to choose a default width giving a roughly square deposit."""
@@ -62,7 +67,7 @@ def _parse_radii(sizes, dim=None):
 
 
 def deposit_arrays(radii, width, periodic=True, bed_positions=None, bed_radii=None,
-                   tolerance=DEFAULT_TOLERANCE, progress=None, floor_rule="left"):
+                   tolerance=DEFAULT_TOLERANCE, progress=None, floor_rule=DEFAULT_FLOOR_RULE):
     """Deposit disks of the given radii **in the given order**; plain arrays in and out.
 
     Parameters
@@ -79,7 +84,7 @@ def deposit_arrays(radii, width, periodic=True, bed_positions=None, bed_radii=No
         Relative tolerance of the contact tests and of the tie rule.
     progress : bool, optional
         Progress bar (default: only on a terminal).
-    floor_rule : {"left", "centred"}
+    floor_rule : {"centred", "left"}
         Bare-floor placement (see :func:`deposit`).
 
     Returns
@@ -156,7 +161,7 @@ def _floor_rule_code(floor_rule):
 
     codes = {"left": FLOOR_LEFT, "centred": FLOOR_CENTRED}
     if floor_rule not in codes:
-        raise InvalidInputError(f"floor_rule={floor_rule!r}: allowed are 'left' and 'centred'")
+        raise InvalidInputError(f"floor_rule={floor_rule!r}: allowed are 'centred' and 'left'")
     return codes[floor_rule]
 
 
@@ -283,12 +288,13 @@ def _deposit_3d(radii, species, width, boundary, order, seed, tol, progress):
 
 
 def deposit(sizes, width=None, boundary="periodic", order="random", seed=None, bed=None,
-            tolerance=DEFAULT_TOLERANCE, progress=None, dim=None, floor_rule="left"):
+            tolerance=DEFAULT_TOLERANCE, progress=None, dim=None, floor_rule=None):
     """Pack of disks (2D) or spheres (3D) built by sequential deposition (potential minimisation).
 
     Each disk, in turn, goes to the lowest centre height at which it rests on the floor,
     a wall or two disks of the free surface, reachable by a vertical drop; ties
-    (heights within ``tolerance * r``) go to the leftmost position.  This is the
+    (heights within ``tolerance * r``) go to the leftmost position, except on bare floor
+    (``floor_rule``).  This is the
     "potential minimization method" of §2.4 of 001_ad5bae0acea940c4.txt (Fig. 9 builds
     ρ(s) with it); every disk placed on two disks touches them and rests between them,
     so the mean coordination of the bulk is 4.
@@ -321,13 +327,17 @@ def deposit(sizes, width=None, boundary="periodic", order="random", seed=None, b
         Relative tolerance of the contact tests and of the tie rule.
     progress : bool, optional
         Progress bar (default: only on a terminal).
-    floor_rule : {"left", "centred"}
-        Where a disk goes on bare floor (2D): the leftmost point of the leftmost bare
-        stretch (``"left"``: a bare floor fills as a touching row from the left), or the
-        midpoint of that stretch (``"centred"``: the floor fills by bisection, leaving
-        gaps narrower than a disk, as the LMGC90 ``deposit2D`` routine of the seed's
-        group does).  All other positions (pockets, walls) follow the same lowest-then-
-        leftmost rule.
+    floor_rule : {"centred", "left"}, optional
+        Where a disk goes on bare floor (2D; default ``"centred"``,
+        :data:`DEFAULT_FLOOR_RULE`): the midpoint of the leftmost bare stretch
+        (``"centred"``: the floor fills by bisection, leaving gaps narrower than a disk, as
+        the LMGC90 ``deposit2D`` routine of the seed's group does), or its leftmost point
+        (``"left"``: a bare floor fills as a touching row from the left; equal disks then
+        build the triangular crystal).  All other positions (pockets, walls) follow the
+        same lowest-then-leftmost rule, so the two differ in the first layer only; below
+        s ≈ 0.05 its memory reaches the bulk (``"centred"``: ρ depends on the width, see
+        docs/deposition.md).  3D deposits have one rule (lowest, then smallest x, then
+        smallest y): leave it out or pass ``"left"``.
 
     Returns
     -------
@@ -362,14 +372,16 @@ def deposit(sizes, width=None, boundary="periodic", order="random", seed=None, b
         raise InvalidInputError(f"tolerance={tolerance!r} must be a number in (0, 1e-3]") from None
     if not (0 < tol <= 1e-3):
         raise InvalidInputError(f"tolerance={tolerance!r} must be in (0, 1e-3]")
-    if floor_rule not in ("left", "centred"):
-        raise InvalidInputError(f"floor_rule={floor_rule!r}: allowed are 'left' and 'centred'")
+    if floor_rule not in (None, "left", "centred"):
+        raise InvalidInputError(f"floor_rule={floor_rule!r}: allowed are 'centred' and 'left'")
     if dim == 3:
-        if floor_rule != "left":
+        if floor_rule == "centred":
             raise InvalidInputError("floor_rule='centred' is supported for 2D deposits only")
         if bed is not None:
             raise InvalidInputError("bed= is supported for 2D deposits only")
         return _deposit_3d(radii, species, width, boundary, order, seed, tol, progress)
+    if floor_rule is None:
+        floor_rule = DEFAULT_FLOOR_RULE
     periodic = boundary == "periodic"
     bed_p = bed_r = None
     bed_sp = np.zeros(0, dtype=np.int64)
