@@ -259,7 +259,7 @@ MUTANTS = [
     Mutant("e-discretize-ignored", P + "config.py",
            'if resolved["sampling"] == "discretize":', 'if resolved["sampling"] == "discretise":',
            ("tests/test_pipeline_options.py",), "option ignored"),
-    Mutant("e-shake-keys", E + "stages.py",
+    Mutant("e-shake-keys", G + "_capabilities.py",
            '("max_trials", "max_trials"), ("shake_method", "method")',
            '("max_trials", "max_trial"), ("shake_method", "method")',
            ("tests/test_pipeline_options.py",), "option misrouted"),

@@ -58,10 +58,6 @@ def _shake_options(pr):
     return shake_options(pr)
 
 
-_SHAKE_KEYS = (("shake_radius", "shake_radius"), ("max_trials", "max_trials"), ("shake_method", "method"),
-               ("adaptive", "adaptive"))
-
-
 def study_kernels(study_data) -> list[str]:
     """The numba kernel modules a study runs (its protocol's and analyses', plus the monitor's)."""
     mods = list(_protocol(study_data).kernels)
@@ -127,6 +123,8 @@ def _check_shake_options(pr):
         pp.shake(tiny, global_shakes=0, seed=0, progress=False, **opts)
     except InvalidInputError as exc:
         msg = str(exc)
+        from ..generate._capabilities import _SHAKE_KEYS  # protocol key -> shake() argument
+
         key = next((k for k, a in _SHAKE_KEYS if msg.startswith(f"{a}=")), None)
         raise InvalidInputError(f"protocol.{key}: {msg}" if key else f"protocol: {msg}") from None
 
