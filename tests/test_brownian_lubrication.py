@@ -81,13 +81,14 @@ def test_fuchs_stability_ratio():
     assert code[1] / code[0] > 14.0 and free[1] / free[0] < 2.2
 
 
-def _cluster(n, seed):
+def _cluster(n, seed, gaps=(0.02, 0.15)):
+    """``n`` spheres, each added at a nearest-neighbour gap (in radii) within ``gaps``."""
     rng = np.random.default_rng(seed)
     pos = np.array([[20.0, 20.0, 20.0]])
     while len(pos) < n:
         c = pos[rng.integers(len(pos))] + rng.normal(size=3)
         d = np.linalg.norm(pos - c, axis=1)
-        if 2.02 < d.min() < 2.15:
+        if 2.0 + gaps[0] < d.min() < 2.0 + gaps[1]:
             pos = np.vstack([pos, c])
     return pos
 
@@ -105,12 +106,14 @@ def _dense_mobility(pos, box, uc, pi, pj, flag):
     return M
 
 
-@pytest.mark.parametrize("seed", [3, 7])
-def test_mobility_and_ito_drift_against_finite_differences(seed):
+@pytest.mark.parametrize("seed, gaps", [(3, (0.02, 0.15)), (7, (0.02, 0.15)), (5, (0.27, 0.48))])
+def test_mobility_and_ito_drift_against_finite_differences(seed, gaps):
     """M = S² is symmetric positive definite; its divergence (pair and cross terms) equals central
-    differences of the dense M to 1e-7 (6-sphere clusters, several pairs through one sphere)."""
+    differences of the dense M to 1e-7 (6-sphere clusters, several pairs through one sphere).
+    Gaps near contact, and gaps in the taper uc/2 < u < uc, where dβ_eff/du has the taper's own
+    chain-rule term (central differences at eps = 1e-6: truncation ~1e-11, round-off ~1e-10)."""
     n, uc = 6, 0.5
-    pos = _cluster(n, seed)
+    pos = _cluster(n, seed, gaps)
     box = np.full(3, 50.0)
     pi, pj = (x.astype(np.int64) for x in np.triu_indices(n, 1))
     flag = np.zeros(pi.size, np.uint8)
@@ -120,6 +123,8 @@ def test_mobility_and_ito_drift_against_finite_differences(seed):
     gap = np.linalg.norm(pos[pj] - pos[pi], axis=1) - 2
     lub = (gap < uc) & (flag == 0)
     assert m == lub.sum() and np.bincount(np.r_[pi[lub], pj[lub]]).max() >= 2  # cross terms exercised
+    if gaps[0] > uc / 2:
+        assert np.count_nonzero(lub & (gap > uc / 2)) >= 3  # the taper is exercised
     assert np.abs(M - M.T).max() < 1e-14 and np.linalg.eigvalsh(M).min() > 0
     # an isolated lubricated pair: relative normal mobility 2/β, centre of mass and tangents free
     two = np.array([[20.0, 20.0, 20.0], [22.05, 20.0, 20.0]])

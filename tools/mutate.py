@@ -492,6 +492,13 @@ MUTANTS += [
            "lbl = work_f[s, 6 + lev] + (r - rho[lev]) - lmargin", "lbl = work_f[s, 6 + lev] + (r - rmin) - lmargin",
            ("tests/test_deposit3d.py::test_pruned_search_equals_the_exhaustive_search",) + T_DEP3,
            "wrong reference radius (pruning bound)"),
+    # lubricated Brownian dynamics (landed 2 Dec): only the Ito drift (div M) sees dbeta/du
+    Mutant("k-lub-dbeta", K + "bd.py",
+           "db = -(54.0 * uu * uu + 24.0 * uu + 8.0) / (den * den)", "db = -(54.0 * uu * uu + 24.0 * uu + 4.0) / (den * den)",
+           ("tests/test_brownian_lubrication.py",), "wrong coefficient (derivative of the Honig factor)"),
+    Mutant("k-lub-taper-slope", K + "bd.py",
+           "dsfac = -6.0 * t * (1.0 - t) * 2.0 / uc", "dsfac = -6.0 * t * (1.0 - t) / uc",
+           ("tests/test_brownian_lubrication.py",), "dropped factor (chain rule of the taper)"),
 ]
 
 
@@ -661,7 +668,7 @@ def write_markdown(json_paths, out):
     missing = sum(m.id not in res for m in MUTANTS)
     lines.append("")
     lines.append(f"Caught {caught} of {len(ran)} mutants run ({len(MUTANTS)} in the list"
-                 + (f", {missing} not run" if missing else "") + f"); tests of the mutants: {wall / 60:.0f} min wall, "
+                 + (f", {missing} not run" if missing else "") + f"); the mutants' tests, summed: {wall / 60:.0f} min wall, "
                  f"{cpu / 60:.0f} min CPU in total.")
     Path(out).write_text("\n".join(lines) + "\n")
     return caught, len(ran)
