@@ -323,13 +323,14 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
     sources = set()
     groups = [(Path(f), *set_label(f, parameter, v)) for v, f in sets] + [(Path(f), *set_label(f)) for f in include]
     for folder, label, kind, vkey, v in groups:
-        vals = []
+        vals, floppy = [], 0
         for rec, gsd in _records(folder):
             a, b, c, g, gsd_sd, src, g_aff = _structure_values(rec, gsd, elastic, modulus)
             sources.add(src)
             rigid = bool(g > FLOPPY_FLOOR * g_aff) if math.isfinite(g_aff) else bool(g > 0)
             if not rigid:  # a zero modulus: its round-off is not reported as a value
                 g, gsd_sd = 0.0, 0.0
+                floppy += 1
             vals.append((a, b, c, g, gsd_sd))
             points.append({"set": label, "kind": kind, "parameter": vkey, "value": v, "index": rec["index"],
                            "a": a, "b": b, "C": c,
@@ -344,7 +345,7 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
                      "a": float(arr[:, 0].mean()), "a_se": se(arr[:, 0]), "b": float(arr[:, 1].mean()),
                      "C": float(np.nanmean(arr[:, 2])), "C_se": se(arr[:, 2]),
                      "G_MPa": float(arr[:, 3].mean()) * 1e-6, "G_sd_MPa": float(gall) * 1e-6,
-                     "floppy": sum(not p["rigid"] for p in points[-nr:])})
+                     "floppy": floppy})
     if not points:
         raise InvalidInputError(f"heterogeneity report: no complete realization under {out}")
     a = np.array([p["a"] for p in points])
