@@ -194,6 +194,53 @@ def test_cli_sigint_at_several_times_pack_scrm_shake(tmp_path):
     assert tried == 6
 
 
+@pytest.mark.parametrize("where", fi.SIGINT_POINTS)
+def test_cli_sigint_at_each_moment_of_the_process_exits_cleanly(where, tmp_path):
+    """A real SIGINT sent at a chosen moment (by a ``sitecustomize``): during ``import polypack``
+    (numpy) and the CLI's imports, as ``cli.main`` starts, right after the command returned
+    (its pack written), in the last atexit callback and while the modules are torn down (after
+    Python's own signal handling ended: this was a death by SIGINT, exit status -2, with the
+    pack written).  Before the command: 130 and one line, nothing written; after the write:
+    130 and one line naming the whole pack; at exit: 0, no traceback, the whole pack."""
+    out = tmp_path / "p.gsd"
+    rc, err, fired = fi.run_cli_sigint_at(["pack", "--n", "200", "-c", "0.5", "--seed", "1", "-o", out,
+                                           "--no-progress"], where, tmp_path)
+    assert fired, f"the SIGINT at {where} was never sent"
+    if where in ("atexit", "teardown"):
+        assert rc == 0 and err.strip() == "", (rc, err)
+    else:
+        assert rc == 130 and _one_interrupt_line(err), (rc, err)
+    if where.startswith(("import:", "call:")):
+        assert "nothing was saved" in err and not out.exists()
+    else:
+        if rc == 130:
+            assert f"saved {out} before the interrupt" in err, err
+        pk = pp.io.read(out)
+        assert pk.n == 200 and pk.min_gap() >= 0.0
+
+
+def test_cli_sigint_right_after_polypack_took_over_sigint(tmp_path):
+    """The earliest SIGINT polypack can answer: the child starts with SIGINT ignored, the first
+    statement of ``import polypack`` installs the CLI's handler (visible in /proc), and the
+    SIGINT is sent at once, i.e. during the imports of numpy and the CLI."""
+    import subprocess
+    import time
+
+    if not Path("/proc/self/status").exists():
+        pytest.skip("needs Linux /proc")
+    out = tmp_path / "p.gsd"
+    proc = subprocess.Popen([sys.executable, "-m", "polypack", "pack", "--n", "200", "-c", "0.5", "-o", str(out),
+                             "--no-progress"], env=fi.cli_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN))
+    deadline = time.monotonic() + 120
+    while proc.poll() is None and fi._sigint_ignored(proc.pid) and time.monotonic() < deadline:
+        time.sleep(0.001)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode == 130 and _one_interrupt_line(err) and "nothing was saved" in err, (proc.returncode, err)
+    assert not out.exists()
+
+
 def test_cli_run_interrupted_and_resumed_equals_uninterrupted(tmp_path):
     from polypack.study import Study
 

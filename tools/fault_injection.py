@@ -258,9 +258,27 @@ def _cpu_seconds(pid):
     return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
+def _sigint_ignored(pid):
+    """Whether process ``pid`` ignores SIGINT (Linux ``/proc``); None if unknown or ended."""
+    try:
+        with open(f"/proc/{pid}/status") as fh:
+            for line in fh:
+                if line.startswith("SigIgn:"):
+                    return bool(int(line.split()[1], 16) >> (signal.SIGINT - 1) & 1)
+    except (OSError, ValueError):
+        return None
+    return None
+
+
 def run_cli(args, sigint_after=None, cwd=None, timeout=300, clock="wall"):
     """Run ``python -m polypack ARGS``; SIGINT ``sigint_after`` s after the interpreter and
     ``import polypack`` would have started. Returns (rc, stderr).
+
+    On Linux the clock starts when polypack's own SIGINT handler is in place: the child is
+    started with SIGINT ignored, which Python keeps through its start-up, and the first
+    statement of ``import polypack`` replaces it (``polypack._entry``), which ``/proc`` shows.
+    A SIGINT before that moment (interpreter start-up, ``site``) is Python's own business, and
+    on a loaded machine a wall-clock SIGINT could land there; so none is ever sent before it.
 
     ``clock="wall"`` counts wall time after :func:`startup_seconds`; ``clock="cpu"`` counts the
     child's own CPU time after :func:`startup_cpu_seconds`, so the SIGINT lands at the same point
@@ -270,15 +288,22 @@ def run_cli(args, sigint_after=None, cwd=None, timeout=300, clock="wall"):
         raise ValueError(f"clock={clock!r}: use 'wall' or 'cpu'")
     if sigint_after is not None:
         sigint_after += startup_seconds() if clock == "wall" else startup_cpu_seconds()
+    gate = sigint_after is not None and Path("/proc/self/status").exists()
+    t0 = time.monotonic()
     proc = subprocess.Popen([sys.executable, "-m", "polypack", *map(str, args)], cwd=cwd, env=cli_env(),
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=(lambda: signal.signal(signal.SIGINT, signal.SIG_IGN)) if gate else None)
+    deadline = t0 + timeout
+    if gate:  # wait for polypack's handler (the SIGINT-ignored bit clears)
+        while proc.poll() is None and _sigint_ignored(proc.pid) and time.monotonic() < deadline:
+            time.sleep(0.002)
+        t0 = time.monotonic()
     if sigint_after is not None and clock == "wall":
         try:
-            proc.wait(timeout=sigint_after)
+            proc.wait(timeout=max(0.0, t0 + sigint_after - time.monotonic()))
         except subprocess.TimeoutExpired:
             proc.send_signal(signal.SIGINT)
     elif sigint_after is not None:
-        deadline = time.monotonic() + timeout
         while proc.poll() is None and time.monotonic() < deadline:
             used = _cpu_seconds(proc.pid)
             if used is not None and used >= sigint_after:
@@ -289,10 +314,80 @@ def run_cli(args, sigint_after=None, cwd=None, timeout=300, clock="wall"):
     return proc.returncode, err
 
 
+# A ``sitecustomize`` (found first on PYTHONPATH) that sends the process a real SIGINT at one
+# chosen moment of a ``python -m polypack ...`` run, and notes in a file that it did.
+_SIGINT_AT_SITECUSTOMIZE = """
+import os, signal, sys
+
+_where = os.environ.get("POLYPACK_SIGINT_AT", "")
+_mark = os.environ.get("POLYPACK_SIGINT_MARK", "")
+_kind, _, _target = _where.partition(":")
+
+
+def _fire(kill=os.kill, pid=os.getpid(), mark=_mark, where=_where, open_=open):  # bound: usable at teardown
+    if mark:
+        with open_(mark, "w") as fh:
+            fh.write(where)
+    kill(pid, signal.SIGINT)
+
+
+if _kind == "import":  # while the module _target is being imported (its first import)
+    class _Finder:
+        def find_spec(self, name, path=None, target=None):
+            if name == _target:
+                sys.meta_path.remove(self)
+                _fire()
+            return None
+
+    sys.meta_path.insert(0, _Finder())
+elif _kind in ("call", "return"):  # as the function _target (module.function) is entered / returns
+    _mod, _, _func = _target.rpartition(".")
+
+    def _profile(frame, event, arg):
+        if (event == _kind and frame.f_code.co_name == _func
+                and frame.f_globals.get("__name__") == _mod):
+            sys.setprofile(None)
+            _fire()
+
+    sys.setprofile(_profile)
+elif _kind == "atexit":  # registered before polypack is imported: the last atexit callback
+    import atexit
+
+    atexit.register(_fire)
+elif _kind == "teardown":  # while the modules are torn down, after Python's signal handling ended
+    class _OnDelete:
+        def __del__(self, fire=_fire):
+            fire()
+
+    _on_delete = _OnDelete()
+"""
+
+SIGINT_POINTS = ("import:numpy", "import:polypack.__main__", "import:typer", "call:polypack.cli.main",
+                 "return:polypack.cli.main", "return:polypack._entry.main", "atexit", "teardown")
+
+
+def run_cli_sigint_at(args, where, workdir, timeout=300):
+    """Run ``python -m polypack ARGS`` with a real SIGINT sent at ``where`` (one of
+    :data:`SIGINT_POINTS`, or ``import:<module>`` / ``call:<module.function>`` /
+    ``return:<module.function>``). Returns (rc, stderr, fired): ``fired`` says whether the
+    SIGINT was sent (a point the run never reached sends nothing)."""
+    workdir = Path(workdir)
+    site = workdir / "sigint-at-site"
+    site.mkdir(parents=True, exist_ok=True)
+    (site / "sitecustomize.py").write_text(_SIGINT_AT_SITECUSTOMIZE)
+    mark = workdir / "sigint-at-fired"
+    mark.unlink(missing_ok=True)
+    env = cli_env()
+    env["PYTHONPATH"] = str(site) + os.pathsep + env["PYTHONPATH"]
+    env.update(POLYPACK_SIGINT_AT=where, POLYPACK_SIGINT_MARK=str(mark))
+    proc = subprocess.run([sys.executable, "-m", "polypack", *map(str, args)], env=env, capture_output=True,
+                          text=True, timeout=timeout)
+    return proc.returncode, proc.stderr, mark.exists()
+
+
 def during_startup(rc, err) -> bool:
-    """A SIGINT that arrived while Python was still importing (numpy, typing ...) before any
-    polypack code ran: Python's own traceback, not a polypack outcome (on a loaded machine
-    start-up can take longer than :func:`startup_seconds` measured)."""
+    """A SIGINT that arrived while Python was still starting, before any polypack code ran:
+    Python's own outcome, not polypack's (:func:`run_cli` never sends one then on Linux)."""
     return rc != 130 and "KeyboardInterrupt" in err and "polypack/" not in err.replace("\\", "/")
 
 
@@ -377,10 +472,13 @@ def cli_time_sweeps(n_times, max_time, log=print):
                     return None if np.array_equal(got.positions, ref_pk.positions) else "exit 0 with a different pack"
                 if rc != 130:
                     return f"exit {rc}: {err.strip()[-300:]}"
-                if p.exists():
-                    return "exit 130 but a pack was written under the requested name"
                 if len(err.strip().splitlines()) != 1 or not err.startswith("interrupted"):
                     return f"not one 'interrupted' line: {err.strip()[-300:]!r}"
+                if p.exists():  # the Ctrl-C came after the (atomic) write: named, and whole
+                    if f"saved {p}" not in err:
+                        return "exit 130 with a pack under the requested name that the line does not name"
+                    if not np.array_equal(pp.io.read(p).positions, ref_pk.positions):
+                        return "exit 130 with a different pack under the requested name"
                 return None
 
             r = sweep_cli_times(args_of, check, times, log=log)

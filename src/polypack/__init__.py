@@ -6,7 +6,13 @@ Implements 000_2cedc098acbd866b.txt (random bimodal packs), 001_ad5bae0acea940c4
 
 from __future__ import annotations
 
-import os as _os
+# First: in the CLI's own process (``polypack ...``, ``python -m polypack ...``) a Ctrl-C
+# during the imports below exits 130 with one line, not with a traceback (see _entry).
+from ._entry import guard_cli_process as _guard_cli_process
+
+_guard_cli_process()
+
+import os as _os  # noqa: E402
 
 # A per-user numba cache folder: a shared or read-only site-packages cache breaks caching.
 # numba does not invalidate a cached kernel when a kernel it calls from another file

@@ -92,11 +92,10 @@ def _click_exception_types():
 
 def _interrupted():
     """Ctrl-C: one line naming what this command saved, exit code 130."""
-    from ._util import written_files
+    from ._entry import _interrupted_line, said_interrupted
 
-    files = written_files()
-    saved = f"saved {', '.join(files)} before the interrupt" if files else "nothing was saved"
-    typer.echo(f"interrupted: {saved}", err=True)
+    said_interrupted()  # in the CLI's process a further Ctrl-C is ignored until the exit
+    typer.echo(_interrupted_line(), err=True)
     sys.exit(130)
 
 
