@@ -338,6 +338,60 @@ def bond_stress(bi, bj, kn, ks, normal, branch, arm_i, arm_j, ell, rotations, q,
     return out
 
 
+@njit(cache=True)
+def relaxed_gram(bi, bj, kn, ks, normal, branch, arm_i, arm_j, ell, rotations, q, cols):
+    """Gram matrix ``G[a, b] = sum_c delta_a^T K_c delta_b`` of relaxed bond deformations.
+
+    ``q`` (n, nd, k): one nodal field per column (translations, then ``w = ell * theta``
+    as in :func:`assemble`); column ``a`` is the response to the unit Voigt strain
+    ``cols[a]`` (engineering shears), so ``delta_a = B_i q_ia + B_j q_ja + A e_cols[a]``.
+    ``G / V`` is the relaxed stiffness, a sum of non-negative bond energies with no
+    cancelling terms (twice the elastic energy of the fields on the diagonal).
+    """
+    m = bi.shape[0]
+    k = q.shape[2]
+    g = np.zeros((k, k))
+    d = np.empty((3, k))
+    f = np.empty((3, k))
+    for c in range(m):
+        p = bi[c]
+        s = bj[c]
+        ai = arm_i[c]
+        aj = arm_j[c]
+        for a in range(k):
+            for r in range(3):
+                d[r, a] = q[s, r, a] - q[p, r, a]
+            if rotations:
+                ti0 = q[p, 3, a] / ell
+                ti1 = q[p, 4, a] / ell
+                ti2 = q[p, 5, a] / ell
+                tj0 = q[s, 3, a] / ell
+                tj1 = q[s, 4, a] / ell
+                tj2 = q[s, 5, a] / ell
+                d[0, a] += (tj1 * aj[2] - tj2 * aj[1]) - (ti1 * ai[2] - ti2 * ai[1])
+                d[1, a] += (tj2 * aj[0] - tj0 * aj[2]) - (ti2 * ai[0] - ti0 * ai[2])
+                d[2, a] += (tj0 * aj[1] - tj1 * aj[0]) - (ti0 * ai[1] - ti1 * ai[0])
+            v = cols[a]
+            if v < 3:
+                d[v, a] += branch[c, v]
+            else:
+                # engineering shear gamma: e_pr = e_rp = gamma / 2
+                pp = 1 if v == 3 else 0
+                rr = 1 if v == 5 else 2
+                d[pp, a] += 0.5 * branch[c, rr]
+                d[rr, a] += 0.5 * branch[c, pp]
+            dn = d[0, a] * normal[c, 0] + d[1, a] * normal[c, 1] + d[2, a] * normal[c, 2]
+            for r in range(3):
+                f[r, a] = ks[c] * d[r, a] + (kn[c] - ks[c]) * dn * normal[c, r]
+        for a in range(k):
+            for b in range(a, k):
+                v = d[0, a] * f[0, b] + d[1, a] * f[1, b] + d[2, a] * f[2, b]
+                g[a, b] += v
+                if b != a:
+                    g[b, a] += v
+    return g
+
+
 def warmup():
     """Compile the kernels of this module on a tiny input."""
     bi = np.array([0, 1, 2], np.int64)
@@ -351,3 +405,5 @@ def warmup():
     for rot in (True, False):
         assemble(3, bi, bj, k, k, nrm, nrm, 0.5 * nrm, -0.5 * nrm, 0.5, rot)
         bond_stress(bi, bj, k, k, nrm, nrm, 0.5 * nrm, -0.5 * nrm, 0.5, rot, np.zeros((3, 6 if rot else 3)), np.ones(6))
+        relaxed_gram(bi, bj, k, k, nrm, nrm, 0.5 * nrm, -0.5 * nrm, 0.5, rot, np.zeros((3, 6 if rot else 3, 6)),
+                     np.arange(6, dtype=np.int64))

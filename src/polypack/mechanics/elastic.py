@@ -68,6 +68,9 @@ _ISOSTATIC_MARGIN = 1.4
 # multigrid setup costs more than block-Jacobi CG saves (measured, one core: N = 1200
 # jammed, 7 200 unknowns: cg 0.6 s, amg 1.3 s; N = 8000, 48 000 unknowns: cg 7.8 s, amg 3.2 s).
 _AMG_MIN = 24000
+# Largest relative residual of the relaxation accepted by elastic_tensor (the moduli are
+# evaluated as bond energies, second order in the error; beyond this, InfeasibleError).
+_RESIDUAL_LIMIT = 1e-6
 # Coarsest AMG level: at most this many particle blocks (solved by a pseudo-inverse).
 _AMG_MAX_COARSE = 300
 
@@ -351,7 +354,8 @@ def _refine(h, b, bn, solve, tol, max_refine):
     return x, res
 
 
-def _solve_direct(h, b, ref, tau=1e-9, tol=1e-12, max_refine=50, local_modes=None, backend=None):
+def _solve_direct(h, b, ref, tau=1e-9, tol=1e-12, max_refine=50, local_modes=None, backend=None,
+                  krylov_tau=1e-12, max_krylov=2000, energy=None):
     """Solve the consistent singular PSD system ``h x = b`` and count its zero modes.
 
     The floppy modes are counted exactly by Sylvester's law of inertia: a symmetric
@@ -360,22 +364,38 @@ def _solve_direct(h, b, ref, tau=1e-9, tol=1e-12, max_refine=50, local_modes=Non
     default when installed) that one indefinite, pivoted factorization also solves, by
     iterative refinement against ``h``: the error of a mode of generalized eigenvalue
     ``mu`` (``h v = mu D v``) shrinks by ``tau / (mu - tau)`` per step, and ``b`` has no
-    component along the floppy modes (``mu = 0``). Should refinement stall (a mode within
-    a few ``tau`` of zero), the positive definite ``h + tau D`` is factorized instead
-    (Cholesky; rate ``tau / (mu + tau)``), which is what the SuperLU backend always uses
-    for the solve (its symmetric mode does not pivot, so only the positive definite
-    matrix is solved stably).
+    component along the exact zero modes (``mu = 0``).
+
+    Refinement does not relax a *soft* mode (``0 < mu < tau``, the near-floppy networks
+    close to the rigidity transition): it moves it by ``b_v / (mu - tau)`` instead of
+    ``b_v / mu`` at every step, so its load ``b_v`` stays in the residual. The refined
+    solution is therefore kept only when its residual is below ``tol`` (then the energy
+    error ``r^T h^+ r`` is negligible on every mode with a load) and at most
+    :data:`_FLOPPY_BASIS_MAX` collective modes lie below ``tau``. Otherwise (and always
+    with the SuperLU backend, whose symmetric mode does not pivot and so solves only
+    positive definite matrices stably), the positive definite ``h + krylov_tau D`` is
+    factorized and preconditions conjugate gradients (:func:`_solve_cg` with energy
+    control, ``energy`` a map from iterates to twice their energy per column), which
+    relax soft modes too: the preconditioned operator has eigenvalues
+    ``mu / (mu + krylov_tau)``.
 
     ``local_modes`` (sparse, orthonormal columns of known floppy modes, e.g. the free spin
     of a particle with two bonds) lets the floppy basis be found by inverse subspace
-    iteration on the few remaining modes only.
+    iteration on the few remaining modes only. The returned basis holds only the modes
+    that carry no energy in the solution (Ritz value times squared component below 1e-12
+    of the column's energy): soft modes are response, not floppy.
+    Returns ``(x, floppy, residual, basis, backend, cg_iterations)``.
     """
     import scipy.sparse as sp
 
     if backend is None:
         backend = "pardiso" if _pardiso_module() is not None else "superlu"
     d = h.diagonal()
+    scale = float(np.abs(d).max())
     bn = np.maximum(np.linalg.norm(b, axis=0), ref)
+    if local_modes is not None and np.abs(h @ local_modes).max() > 1e-10 * scale:
+        local_modes = None  # not null vectors of h (cannot happen for contact bonds): find all modes
+    known = 0 if local_modes is None else local_modes.shape[1]
     shifted = None
     if backend == "pardiso":
         try:
@@ -386,31 +406,37 @@ def _solve_direct(h, b, ref, tau=1e-9, tol=1e-12, max_refine=50, local_modes=Non
     if shifted is None:
         shifted = cls(h - sp.diags(tau * d), -2)
     floppy = shifted.negative
-    if backend == "pardiso":
+    fac = shifted
+    krylov = backend != "pardiso" or floppy is None or floppy - known > _FLOPPY_BASIS_MAX
+    basis = ritz = None
+    if not krylov:
         x, res = _refine(h, b, bn, shifted.solve, tol, max_refine)
-        fac = shifted
-        if res > tol and res > 1e-9:
-            shifted.free()
-            fac = cls(h + sp.diags(tau * d), 2)
-            x, res = _refine(h, b, bn, fac.solve, tol, max_refine)
-    else:
+        # a loaded soft mode keeps its load in the residual (refinement leaves it there),
+        # so a residual below tol also bounds its energy error, r^T h^+ r
+        krylov = res > tol
+        if not krylov and floppy > known:
+            basis, ritz = _floppy_basis(shifted.solve, h, floppy, local_modes)
+    iterations = 0
+    if krylov:
         shifted.free()
-        fac = cls(h + sp.diags(tau * d), 2)
-        x, res = _refine(h, b, bn, fac.solve, tol, max_refine)
-    if local_modes is not None and np.abs(h @ local_modes).max() > 1e-10 * float(np.abs(d).max()):
-        local_modes = None  # not null vectors of h (cannot happen for contact bonds): find all modes
-    basis = None
-    if floppy:
-        known = 0 if local_modes is None else local_modes.shape[1]
-        if floppy - known <= _FLOPPY_BASIS_MAX:
-            basis = _floppy_basis(fac.solve, h, floppy, local_modes)
-        elif local_modes is not None:
-            # dense subspace iteration over thousands of collective modes costs O(n k^2)
-            # (tens of CPU minutes at N = 8000): the moduli do not depend on it (a floppy
-            # mode carries no stress); only the local modes leave the non-affine fields
-            basis = (local_modes, None)
+        fac = cls(h + sp.diags(krylov_tau * d), 2)
+        x, _, res, iterations = _solve_cg(h, b, ref, tol=tol, maxiter=max_krylov, prec=fac.solve, energy=energy)
+        if floppy and floppy - known <= _FLOPPY_BASIS_MAX:
+            basis, ritz = _floppy_basis(fac.solve, h, floppy, local_modes)
+    if basis is not None and basis[1] is not None:
+        # modes below tau that carry energy in the solution are soft, not floppy: they are
+        # response and stay in the fields (w c^2: Ritz value times the squared component)
+        carried = np.maximum(ritz, 0.0)[:, None] * (basis[1].T @ x) ** 2
+        e_now = energy(x) if energy is not None else np.full(x.shape[1], np.inf)
+        zero = np.all(carried <= 1e-12 * e_now[None, :], axis=1) & (ritz <= 1e-9 * scale)
+        basis = (basis[0], basis[1][:, zero] if zero.any() else None)
+    elif basis is None and floppy and local_modes is not None:
+        # dense subspace iteration over thousands of collective modes costs O(n k^2)
+        # (tens of CPU minutes at N = 8000): the moduli do not depend on it (a floppy
+        # mode carries no stress); only the local modes leave the non-affine fields
+        basis = (local_modes, None)
     fac.free()
-    return x, floppy, res, basis, backend
+    return x, floppy, res, basis, backend, iterations
 
 
 def _floppy_basis(solve, h, k, local=None, sweeps=6):
@@ -420,8 +446,8 @@ def _floppy_basis(solve, h, k, local=None, sweeps=6):
     stiff mode, so a few sweeps from a random block converge; Rayleigh-Ritz keeps the
     ``k`` softest directions. Known modes ``local`` (sparse orthonormal columns in the
     null space) are deflated: the iteration runs on the ``k - local.shape[1]`` others
-    only. Returns ``(local, rest)``: the known modes (sparse or None) and the others
-    (dense or None), together orthonormal.
+    only. Returns ``((local, rest), ritz)``: the known modes (sparse or None) and the
+    others (dense or None), together orthonormal, and the Ritz values of ``rest``.
     """
     rng = np.random.default_rng(0)
     if local is not None and local.shape[1] > k:
@@ -429,7 +455,7 @@ def _floppy_basis(solve, h, k, local=None, sweeps=6):
     known = 0 if local is None else local.shape[1]
     rest = k - known
     if rest <= 0:
-        return local, None
+        return (local, None), None
 
     def deflate(v):
         return v if local is None else v - local @ (local.T @ v)
@@ -443,7 +469,7 @@ def _floppy_basis(solve, h, k, local=None, sweeps=6):
         if np.sort(np.linalg.norm(h @ v, axis=0))[rest - 1] <= 1e-10 * scale:
             break
     w, q = np.linalg.eigh(v.T @ (h @ v))
-    return local, v @ q[:, :rest]
+    return (local, v @ q[:, :rest]), w[:rest]
 
 
 def _remove_floppy(x, basis, keep, centre, lab, clusters, n, nd):
@@ -529,13 +555,29 @@ def _block_jacobi(h, nd):
     return np.linalg.inv(blocks)
 
 
-def _solve_cg(h, b, ref, tol=1e-10, maxiter=None, nd=6, progress=None, prec=None):
+def _solve_cg(h, b, ref, tol=1e-10, maxiter=None, nd=6, progress=None, prec=None, energy=None,
+              energy_tol=1e-11, stall=30):
     """Preconditioned conjugate gradients, all right-hand sides at once.
 
     ``h`` is symmetric positive semi-definite and every column of ``b`` lies in its
     range, so CG started from zero converges to the minimum-energy solution; floppy
     directions are never excited. ``prec`` (a symmetric positive definite map of
     ``(n nd, k)`` blocks) defaults to block Jacobi on the ``nd x nd`` particle blocks.
+
+    ``energy`` (a map from iterates ``(n nd, k)`` to one value per column: twice the
+    elastic energy of the relaxed state, a sum of non-negative bond energies, never below
+    its minimum) switches on energy control: the energy is evaluated every iteration, the
+    lowest-energy iterate of each column is returned, and a column also stops once, over
+    ``stall`` iterations, its energy has dropped by less than ``energy_tol`` times itself
+    and its residual has reached no new low. This is what near-floppy networks need: there the preconditioner (a
+    factor of ``h`` plus a tiny shift) amplifies the round-off of the residual along the
+    zero modes by the inverse shift, so the residual stalls above ``tol`` and then loses
+    orthogonality while the energy, the quantity the moduli are made of, has converged.
+    (The quadratic form ``x^T h x - 2 b^T x`` is no substitute: along a zero mode it
+    falls without bound on the round-off part of ``b``.)
+
+    Returns ``(x, None, residual, iterations)``, the residual the largest
+    ``|b_j - h x_j| / max(|b_j|, ref)`` of the returned iterate.
     """
     k = b.shape[1]
     if prec is None:
@@ -547,33 +589,63 @@ def _solve_cg(h, b, ref, tol=1e-10, maxiter=None, nd=6, progress=None, prec=None
         def prec(r):
             return np.matmul(minv, r.reshape(n, nd, k)).reshape(n * nd, k)
 
+    def dot(u, v):
+        return np.einsum("ij,ij->j", u, v)
+
     x = np.zeros_like(b)
     r = b.copy()
     bn = np.maximum(np.linalg.norm(b, axis=0), ref)
     live = np.ones(k, bool)
     z = prec(r)
     p = z.copy()
-    rz = np.einsum("ij,ij->j", r, z)
+    rz = dot(r, z)
     maxiter = maxiter or max(1000, 10 * (h.shape[0] // nd))
     it = 0
     res = np.linalg.norm(r, axis=0) / bn
-    while it < maxiter and np.any(res[live] > tol):
+    live &= res > tol
+    if energy is not None:
+        best_e = energy(x)  # x = 0: the affine energy
+        best_x = x.copy()
+        since = np.zeros(k, np.int64)  # iterations since the energy last dropped by energy_tol
+        mark = best_e.copy()
+        best_r = res.copy()
+        best_xr = res.copy()  # residual of best_x
+        since_r = np.zeros(k, np.int64)  # iterations since the residual last reached a new low
+    while it < maxiter and live.any():
         q = h @ p
-        pq = np.einsum("ij,ij->j", p, q)
+        pq = dot(p, q)
         alpha = np.where(live & (pq > 0), rz / np.where(pq > 0, pq, 1.0), 0.0)
         x += p * alpha
         r -= q * alpha
         it += 1
         res = np.linalg.norm(r, axis=0) / bn
-        done = res <= tol
+        live &= (res > tol) & (pq > 0)
+        if energy is not None:
+            e_now = energy(x)
+            # lower energy, or the same within energy_tol (round-off) and a lower residual
+            slack = energy_tol * np.abs(best_e)
+            better = (e_now < best_e - slack) | ((e_now <= best_e + slack) & (res < best_xr))
+            best_e = np.where(better, np.minimum(e_now, best_e), best_e)
+            best_xr = np.where(better, res, best_xr)
+            best_x[:, better] = x[:, better]
+            dropped = best_e < mark - energy_tol * np.abs(best_e)
+            mark = np.where(dropped, best_e, mark)
+            since = np.where(dropped, 0, since + 1)
+            lower = res < best_r
+            best_r = np.where(lower, res, best_r)
+            since_r = np.where(lower, 0, since_r + 1)
+            live &= (since < stall) | (since_r < stall)
+        if not live.any():
+            break
         z = prec(r)
-        rz_new = np.einsum("ij,ij->j", r, z)
+        rz_new = dot(r, z)
         beta = np.where(rz > 0, rz_new / np.where(rz > 0, rz, 1.0), 0.0)
         p = z + p * beta
         rz = rz_new
-        live = live & ~done
         if progress is not None:
             progress(it, float(res.max()))
+    if energy is not None:
+        x = best_x
     r = b - h @ x
     return x, None, float((np.linalg.norm(r, axis=0) / bn).max()), it
 
@@ -741,7 +813,8 @@ def elastic_tensor(network, rotations=True, *, radius=None, solver="auto", tol=1
         forces in its reference state, or a bad option.
     InfeasibleError
         When no bonded cluster wraps the periodic box (a disconnected network carries no
-        stress).
+        stress), or when the relaxation does not reach a relative residual of 1e-6
+        (iterative solvers on near-floppy networks: use ``solver="direct"``).
 
     References
     ----------
@@ -752,6 +825,7 @@ def elastic_tensor(network, rotations=True, *, radius=None, solver="auto", tol=1
     """
     import time
 
+    from .._kernels import network as knl
     from .network import BondNetwork
 
     t0 = time.perf_counter()
@@ -809,12 +883,10 @@ def elastic_tensor(network, rotations=True, *, radius=None, solver="auto", tol=1
     bj = idx[network.j[bond_on]]
     ell = float(rad[active].mean())
     nd = 6 if rotations else 3
-    h, xi, caff_on = _hessian(
-        n, bi, bj, kn_all[bond_on], ks_all[bond_on],
-        np.ascontiguousarray(network.normal[bond_on]), np.ascontiguousarray(network.branch[bond_on]),
-        np.ascontiguousarray(network.lever_arm_i[bond_on]), np.ascontiguousarray(network.lever_arm_j[bond_on]),
-        ell, bool(rotations),
-    )
+    bonds = (bi, bj, kn_all[bond_on], ks_all[bond_on], np.ascontiguousarray(network.normal[bond_on]),
+             np.ascontiguousarray(network.branch[bond_on]), np.ascontiguousarray(network.lever_arm_i[bond_on]),
+             np.ascontiguousarray(network.lever_arm_j[bond_on]), ell, bool(rotations))
+    h, xi, caff_on = _hessian(n, *bonds)
     # pin the translations of one particle per wrapping cluster
     clusters = np.unique(label[active])
     lab_active = label[active]
@@ -833,11 +905,24 @@ def elastic_tensor(network, rotations=True, *, radius=None, solver="auto", tol=1
     # residual floor: a right-hand side far below the typical bond force per unit strain
     # (e.g. round-off on a lattice, whose affine forces cancel) needs no relative accuracy
     ref = 1e-6 * float(np.mean(kn_all) * np.mean(network.length)) * np.sqrt(n * nd)
+    strains = np.arange(6, dtype=np.int64)
+
+    def relaxed_energy(y, rows=None):
+        """Twice the relaxed energy per unit strain squared of each column of ``y`` (all
+        unknowns, or those of ``rows``): ``diag`` of the bond Gram matrix."""
+        if rows is not None:
+            full = np.zeros((n * nd, y.shape[1]))
+            full[rows] = y
+            y = full
+        return np.diag(knl.relaxed_gram(*bonds, y.reshape(n, nd, -1), strains[:y.shape[1]]))
+
     if method == "direct":
         hr = h.tocsr()[keep][:, keep]
-        local = _local_spin_modes(n, nd, keep, bi, bj, network.lever_arm_i[bond_on], network.lever_arm_j[bond_on], ell)
-        x_r, floppy, res, basis, factorization = _solve_direct(hr, rhs[keep], ref, tol=min(tol, 1e-12),
-                                                               local_modes=local)
+        local = _local_spin_modes(n, nd, keep, bi, bj, bonds[6], bonds[7], ell)
+        x_r, floppy, res, basis, factorization, krylov = _solve_direct(hr, rhs[keep], ref, tol=min(tol, 1e-12),
+                                                                       local_modes=local,
+                                                                       energy=lambda y: relaxed_energy(y, keep))
+        iterations = krylov or None
     else:
         import scipy.sparse as sp
 
@@ -854,15 +939,28 @@ def elastic_tensor(network, rotations=True, *, radius=None, solver="auto", tol=1
             mg = _Multigrid(hp, nd, np.asarray(network.packing.positions, dtype=np.float64)[active], ell)
             prec = mg
             levels = mg.sizes
-        x_full, floppy, res, iterations = _solve_cg(hp, rhs, ref, tol=tol, nd=nd, prec=prec)
+        x_full, floppy, res, iterations = _solve_cg(hp, rhs, ref, tol=tol, nd=nd, prec=prec, energy=relaxed_energy)
         x_r = x_full[keep]
+    if not res <= _RESIDUAL_LIMIT:
+        raise InfeasibleError(
+            f"elastic_tensor: the relaxation did not converge (solver={method!r}: relative residual {res:.2g}"
+            + (f" after {iterations} CG iterations" if iterations else "")
+            + f", limit {_RESIDUAL_LIMIT:g}; Z = {network.coordination:.3g}); near-floppy networks need "
+            "solver='direct'"
+        )
     x = np.zeros((n * nd, 6))
     x[keep] = x_r
-    # C = C_aff - Xi^T H^+ Xi / V = C_aff + Xi^T x / V (x = -H^+ Xi), with C_aff over the
-    # relaxing bonds only: a rattler's bonds and those of clusters that do not wrap the box
-    # relax completely and carry no stress (they stay in affine_stiffness, the Voigt bound)
-    c_rel = caff_on / volume + (xi.T @ x) / volume
-    asym = float(np.abs(c_rel - c_rel.T).max() / max(np.abs(c_rel).max(), 1e-300))
+    # C = C_aff - Xi^T H^+ Xi / V, with C_aff over the relaxing bonds only: a rattler's
+    # bonds and those of clusters that do not wrap the box relax completely and carry no
+    # stress (they stay in affine_stiffness, the Voigt bound). Evaluated as the energy of
+    # the relaxed bonds (knl.relaxed_gram): symmetric and positive semi-definite by
+    # construction, never below the exact C, off by only the energy norm of the error of
+    # x (second order; C_aff + Xi^T x / V, equal at the exact x = -H^+ Xi, is off to
+    # first order), and blind to the components of x along zero modes. The asymmetry of
+    # Xi^T x measures how far x is from the exact solution.
+    xtx = xi.T @ x
+    asym = float(np.abs(xtx - xtx.T).max() / max(np.abs(caff_on + xtx).max(), 1e-300))
+    c_rel = knl.relaxed_gram(*bonds, x.reshape(n, nd, 6), strains) / volume
     c_rel = 0.5 * (c_rel + c_rel.T)
 
     # nonaffine fields: zero mean translation per cluster and, when floppy modes exist,
