@@ -196,9 +196,13 @@ def report_network(label, net, rec, key, solvers=("auto", "cg"), scipy=True, sci
                     f"{solver}_iterations": et.iterations, f"{solver}_floppy_modes": et.floppy_modes,
                     f"{solver}_levels": et.multigrid_levels, f"{solver}_residual": et.residual,
                     f"{solver}_peak_rss_mib": rss})
+    if float(np.mean(net.packing.radii)) < 1e-3:  # lengths in metres already: G in Pa
+        in_mpa = f"G = {ref.shear_modulus * 1e-6:.3g} MPa (SI packing)"
+    else:  # lengths in diameters: G in kn / d, scaled to r0 = 0.25 um
+        d = 2.0 * float(np.mean(net.packing.radii))
+        in_mpa = f"G = {ref.shear_modulus * d * 1e-6 / 0.5e-6:.3g} MPa for r0 = 0.25 um, kn = 100 N/m"
     print(f"  G = {ref.shear_modulus:.4g}, G_affine = {ref.affine_shear_modulus:.4g}, relaxed/affine = "
-          f"{ref.relaxation_ratio:.4f}; G = {ref.shear_modulus * 1e-6 * 0.5 / 0.25e-6:.3g} MPa for r0 = 0.25 um, "
-          f"kn = 100 N/m")
+          f"{ref.relaxation_ratio:.4f}; {in_mpa}")
     out.update({"relaxed_over_affine": ref.relaxation_ratio, "G": ref.shear_modulus, "G_aff": ref.affine_shear_modulus})
     if scipy:
         c_sc, t_sc, iters = plain_scipy_cg(net, modes=scipy_modes)
