@@ -148,10 +148,10 @@ MUTANTS = [
            "dd = np.sqrt(dx * dx + dy * dy + dz * dz) + sr[s]",
            ("tests/test_analysis_pores.py", T_NC), "wrong sign"),
     Mutant("k-shake-overlap-ly", K + "shake.py",
-           "        dy -= ly * np.rint(dy / ly)\n        dz -= lz * np.rint(dz / lz)\n        sig = ri + radii[j]\n"
-           "        if dx * dx",
-           "        dy -= lx * np.rint(dy / lx)\n        dz -= lz * np.rint(dz / lz)\n        sig = ri + radii[j]\n"
-           "        if dx * dx",
+           "    dy -= ly * np.rint(dy / ly)\n    dz -= lz * np.rint(dz / lz)\n    sig = ri + radii[j]\n"
+           "    return dx * dx",
+           "    dy -= lx * np.rint(dy / lx)\n    dz -= lz * np.rint(dz / lz)\n    sig = ri + radii[j]\n"
+           "    return dx * dx",
            T_SHAKE_NC, "swapped box length"),
     Mutant("k-shake-wrap-y", K + "shake.py",
            "                    yn = _wrap1(y0 + dya, box[1])\n                    zn = _wrap1(z0 + dza, box[2])\n"
@@ -170,10 +170,8 @@ MUTANTS = [
            "                    else:\n                        rsh[k] /= 1.0 + 2.0 * adapt_factor\n",
            T_SHAKE, "factor 2"),
     Mutant("k-shake-flight-sign", K + "shake.py",
-           "        t = t if (b < 0.0 and disc >= 0.0) else np.inf  # approaching and hitting\n"
-           "        best = min(best, t)\n    return max(best, 0.0)\n\n\n\n",
-           "        t = t if (b > 0.0 and disc >= 0.0) else np.inf  # approaching and hitting\n"
-           "        best = min(best, t)\n    return max(best, 0.0)\n\n\n\n",
+           "    return t if (b < 0.0 and disc >= 0.0) else np.inf  # approaching and hitting\n",
+           "    return t if (b > 0.0 and disc >= 0.0) else np.inf  # approaching and hitting\n",
            T_SHAKE, "wrong sign"),
     Mutant("k-shake-collision-tau", K + "shake.py",
            "                tau = bestf if bestf < step else step\n",

@@ -651,74 +651,6 @@ def _unlink(i, head, nxt, prv, cell):
 
 
 @njit(cache=True)
-def _cover(p, r, cov, hc, mx, my, L, per, rmin):
-    """Raise the envelope lower bound of the fine cells near a new sphere.
-
-    ``cov[c]`` is a lower bound on ``U_rmin`` (the drop envelope of the smallest sphere) on
-    every column of cell ``c``.  A sphere at horizontal distance at most ``f`` from every
-    column of the cell gives ``U_rmin >= z + sqrt((r + rmin)^2 - f^2)`` when
-    ``f < r + rmin``.  For any radius ``r' >= rmin``, ``U_r' >= U_rmin + (r' - rmin)``
-    (each dilated cap ``sqrt(R^2 - h^2)`` grows at least as fast as ``R``), which makes the
-    bound usable for every sphere.
-    """
-    rm = rmin * (1.0 - 1e-9)
-    R = r + rm
-    rx = int(math.ceil(R / hc[0])) + 1
-    ry = int(math.ceil(R / hc[1])) + 1
-    cx = int(p[0] / hc[0])
-    cy = int(p[1] / hc[1])
-    for qx in range(cx - rx, cx + rx + 1):
-        if not per[0] and (qx < 0 or qx >= mx):
-            continue
-        ax = qx % mx
-        dx = abs(_mi((ax + 0.5) * hc[0] - p[0], L[0], per[0])) + 0.5 * hc[0]
-        if dx >= R:
-            continue
-        for qy in range(cy - ry, cy + ry + 1):
-            if not per[1] and (qy < 0 or qy >= my):
-                continue
-            ay = qy % my
-            dy = abs(_mi((ay + 0.5) * hc[1] - p[1], L[1], per[1])) + 0.5 * hc[1]
-            f2 = dx * dx + dy * dy
-            if f2 < R * R:
-                v = p[2] + math.sqrt(R * R - f2) * (1.0 - 1e-12)
-                if v > cov[ax * my + ay]:
-                    cov[ax * my + ay] = v
-
-
-@njit(cache=True)
-def _min_cover(k, pos, rad, cov, hc, mx, my, L, per, rmax):
-    """Smallest envelope bound ``cov`` over the columns within ``r_k + r_max`` of sphere ``k``.
-
-    A new sphere of radius ``r`` touching ``k`` has its centre on one of these columns, so
-    its height is at least this value plus ``r - rmin`` (a lower bound on every candidate
-    ``k`` owns), and if the value exceeds ``z_k + r_k + rmin`` no sphere can ever touch
-    ``k`` again (the highest centre touching it is ``z_k + r_k + r``): it is dead.
-    """
-    out = np.inf
-    R = rad[k] + rmax
-    rx = int(math.ceil(R / hc[0])) + 1
-    ry = int(math.ceil(R / hc[1])) + 1
-    cx = int(pos[k, 0] / hc[0])
-    cy = int(pos[k, 1] / hc[1])
-    for qx in range(cx - rx, cx + rx + 1):
-        if not per[0] and (qx < 0 or qx >= mx):
-            continue
-        ax = qx % mx
-        dx = max(abs(_mi((ax + 0.5) * hc[0] - pos[k, 0], L[0], per[0])) - 0.5 * hc[0], 0.0)
-        if dx > R:
-            continue
-        for qy in range(cy - ry, cy + ry + 1):
-            if not per[1] and (qy < 0 or qy >= my):
-                continue
-            ay = qy % my
-            dy = max(abs(_mi((ay + 0.5) * hc[1] - pos[k, 1], L[1], per[1])) - 0.5 * hc[1], 0.0)
-            if dx * dx + dy * dy <= R * R and cov[ax * my + ay] < out:
-                out = cov[ax * my + ay]
-    return out
-
-
-@njit(cache=True)
 def _level_radii(rmin, rmax, nlev):
     """Radii ``rho_j = rmin + j (rmax - rmin) / nlev`` of the envelope-bound levels and their reaches.
 
@@ -746,7 +678,16 @@ def _level_of(r, rho, nlev):
 
 @njit(cache=True)
 def _cover_levels(p, r, covl, rho, nlev, hc, mx, my, L, per):
-    """:func:`_cover` for every level at once: ``covl[c * nlev + j]`` bounds ``U_{rho_j}`` on cell ``c``."""
+    """Raise the envelope lower bounds of the fine cells near a new sphere, every level at once.
+
+    ``covl[c * nlev + j]`` is a lower bound on ``U_{rho_j}`` (the drop envelope of a sphere of
+    radius ``rho_j``) on every column of cell ``c``.  A sphere at horizontal distance at most
+    ``f`` from every column of the cell gives ``U_rho >= z + sqrt((r + rho)^2 - f^2)`` when
+    ``f < r + rho``.  For any radius ``r' >= rho``, ``U_r' >= U_rho + (r' - rho)`` (each
+    dilated cap ``sqrt(R^2 - h^2)`` grows at least as fast as ``R``), which makes the bound
+    usable for every larger sphere.  One level ``rho = (rmin,)`` is the bound at ``rmin``
+    that every sphere uses (``cov`` of :func:`deposit_spheres`).
+    """
     R = r + rho[nlev - 1] * (1.0 - 1e-9)
     rx = int(math.ceil(R / hc[0])) + 1
     ry = int(math.ceil(R / hc[1])) + 1
@@ -776,11 +717,14 @@ def _cover_levels(p, r, covl, rho, nlev, hc, mx, my, L, per):
 
 @njit(cache=True)
 def _min_cover_levels(k, pos, rad, covl, reach, nlev, hc, mx, my, L, per, out):
-    """:func:`_min_cover` for every level: ``out[j]`` = smallest ``covl`` level ``j`` within ``r_k + reach_j``.
+    """Smallest envelope bounds near sphere ``k``: ``out[j]`` = smallest ``covl`` level ``j`` within ``r_k + reach_j``.
 
     A candidate owned by ``k`` for a sphere of radius ``r`` at level ``j`` lies on one of these
     columns, on the envelope ``U_r >= U_{rho_j} + (r - rho_j)``, so ``out[j] + r - rho_j``
-    bounds its height from below.
+    bounds its height from below.  With the one level ``rmin`` and ``reach = (rmax,)``: a new
+    sphere touching ``k`` has its centre within ``r_k + rmax``, so its height is at least
+    ``out[0] + r - rmin``, and if ``out[0]`` exceeds ``z_k + r_k + rmin`` no sphere can ever
+    touch ``k`` again (the highest centre touching it is ``z_k + r_k + r``): it is dead.
     """
     for j in range(nlev):
         out[j] = np.inf
@@ -830,7 +774,7 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
     work_f : (N, 6 + COVER_LEVELS) float64, in/out
         Per-sphere cache: best owned candidate ``z, x, y`` (``z = inf``: none below the
         threshold of the search), the radius it is for, the envelope bound of
-        :func:`_min_cover` (radius-independent), and the cached lower bound for that radius
+        :func:`_min_cover_levels` at ``rmin`` (radius-independent), and the cached lower bound for that radius
         (the best height, or the search threshold when none was found).  The spheres are
         searched in the order of a lower bound on their owned candidates (the envelope
         bound plus ``r - rmin``, ``z_s`` where no floor position is near, the cached
@@ -867,6 +811,8 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
     nlev = int(params[Deposit3DParam.COVER_LEVELS])
     search_all = params[Deposit3DParam.SEARCH_ALL] > 0.5
     rho, lreach = _level_radii(rmin, rmax, nlev)
+    rho_min = np.full(1, rmin)  # the bound at rmin, used by every sphere: one level reaching rmax
+    reach_max = np.full(1, rmax)
     cov0 = cov[:mx * my]
     covl = cov[mx * my:]
     # envelope-bound margin: a strict candidate may sit below a grazed cap by ~ sqrt(2 tol) R
@@ -996,7 +942,7 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
         p[0] = pos[i, 0]
         p[1] = pos[i, 1]
         p[2] = pos[i, 2]
-        _cover(p, r, cov0, hc, mx, my, L, per, rmin)
+        _cover_levels(p, r, cov0, rho_min, 1, hc, mx, my, L, per)
         if nlev > 0:
             _cover_levels(p, r, covl, rho, nlev, hc, mx, my, L, per)
         cx, cy = _cell_of(p[0], p[1], hcell, ncx, ncy)
@@ -1020,11 +966,11 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
                     h2 = d0 * d0 + d1 * d1
                     if h2 <= (rad[k] + reach) ** 2:
                         work_f[k, 3] = -1.0  # cache invalid
-                    # the cells raised by _cover lie within r + rmax of p; k's bounds read the cells
-                    # within r_k + rmax of k: elsewhere they are unchanged
+                    # the cells raised by _cover_levels lie within r + rmax of p; k's bounds read the
+                    # cells within r_k + rmax of k: elsewhere they are unchanged
                     if h2 <= (rad[k] + reach_cov) ** 2:
-                        low = _min_cover(k, pos, rad, cov0, hc, mx, my, L, per, rmax)
-                        work_f[k, 4] = low
+                        _min_cover_levels(k, pos, rad, cov0, reach_max, 1, hc, mx, my, L, per, work_f[k, 4:5])
+                        low = work_f[k, 4]
                         if nlev > 0:
                             _min_cover_levels(k, pos, rad, covl, lreach, nlev, hc, mx, my, L, per, work_f[k, 6:])
                         if low > pos[k, 2] + rad[k] + rmin:

@@ -242,6 +242,13 @@ def build_lists(x, rho, box, level, nlev, pad):
     reach_small = 2.0 * rs[n // 2]
     nc = _choose_ncell(box, n, reach_small)
     pi, pj, _ = pairs_within(x, rho, box, 1.0, 0.0, nc)
+    return _slab_lists(pi, pj, n, level, nlev, pad)
+
+
+@njit(cache=True)
+def _slab_lists(pi, pj, n, level, nlev, pad):
+    """Symmetric slab lists ``(off, nn, nbr)`` of the pairs ``(pi[k], pj[k])`` (layout and
+    capacities of :func:`build_lists`; also used by the 2D engine)."""
     m = pi.shape[0]
     cnt = np.zeros(n, np.int64)
     for k in range(m):
@@ -388,13 +395,8 @@ def _grid_move(i, ci_new, head, nxt, prv, cell):
 
 
 @njit(cache=True)
-def _local_rebuild(i, rho_new, x, box, xb, rho, off, nn, nbr, level, nlev, rho_max_lv, nc, coff, head, nxt, prv,
-                   cell):
-    """New shell for sphere ``i`` at its current position; symmetric list update.
-
-    Returns False if a neighbour slab overflowed (the caller then rebuilds globally).
-    """
-    # drop i from its old neighbours' lists (swap-remove)
+def _unlist(i, off, nn, nbr):
+    """Drop ``i`` from its neighbours' lists (swap-remove) and empty its own."""
     for k in range(off[i], off[i] + nn[i]):
         j = nbr[k]
         b = off[j]
@@ -405,6 +407,28 @@ def _local_rebuild(i, rho_new, x, box, xb, rho, off, nn, nbr, level, nlev, rho_m
                 nn[j] -= 1
                 break
     nn[i] = 0
+
+
+@njit(cache=True, inline="always")  # in the scan of a local rebuild
+def _list_pair(i, j, off, nn, nbr):
+    """Add the pair ``(i, j)`` to both lists; False (nothing added) if either slab is full."""
+    if nn[i] < off[i + 1] - off[i] and nn[j] < off[j + 1] - off[j]:
+        nbr[off[i] + nn[i]] = j
+        nn[i] += 1
+        nbr[off[j] + nn[j]] = i
+        nn[j] += 1
+        return True
+    return False
+
+
+@njit(cache=True)
+def _local_rebuild(i, rho_new, x, box, xb, rho, off, nn, nbr, level, nlev, rho_max_lv, nc, coff, head, nxt, prv,
+                   cell):
+    """New shell for sphere ``i`` at its current position; symmetric list update.
+
+    Returns False if a neighbour slab overflowed (the caller then rebuilds globally).
+    """
+    _unlist(i, off, nn, nbr)
     for k in range(3):
         xb[i, k] = x[i, k]
     rho[i] = rho_new
@@ -413,7 +437,6 @@ def _local_rebuild(i, rho_new, x, box, xb, rho, off, nn, nbr, level, nlev, rho_m
         rho_max_lv[lv_i] = rho_new
     _grid_move(i, coff[lv_i] + _cell_index(xb[i, 0], xb[i, 1], xb[i, 2], box, nc, lv_i), head, nxt, prv, cell)
     ok = True
-    cap_i = off[i + 1] - off[i]
     xi0 = xb[i, 0]
     xi1 = xb[i, 1]
     xi2 = xb[i, 2]
@@ -460,12 +483,7 @@ def _local_rebuild(i, rho_new, x, box, xb, rho, off, nn, nbr, level, nlev, rho_m
                             dz = min_image(xb[j, 2] - xi2, box[2])
                             lim = ri + rho[j]
                             if dx * dx + dy * dy + dz * dz <= lim * lim:
-                                if nn[i] < cap_i and nn[j] < off[j + 1] - off[j]:
-                                    nbr[off[i] + nn[i]] = j
-                                    nn[i] += 1
-                                    nbr[off[j] + nn[j]] = i
-                                    nn[j] += 1
-                                else:
+                                if not _list_pair(i, j, off, nn, nbr):
                                     ok = False
                         j = nxt[j]
     return ok

@@ -14,7 +14,8 @@ shell-exit roots (:func:`~polypack._kernels.edmd.pair_time` and
 exact), the indexed 4-ary event heap, the shell widths
 (:func:`~polypack._kernels.edmd.shell_reach`,
 :func:`~polypack._kernels.edmd._shell_radius`), the size levels of the multi-level
-grid and its linked-list moves, and the global pair search
+grid and its linked-list moves, the slab neighbour lists built from the pairs
+(:func:`~polypack._kernels.edmd._slab_lists`), and the global pair search
 (:func:`polypack._kernels.cells.pairs_within` on the disks embedded as a one-cell
 slab ``z = 0``).  What is 2D here: positions ``x`` (N,2) and velocities ``v``
 (N,2), the cell grids of shell centres (``nc[lv]`` two cells counts), the
@@ -34,8 +35,8 @@ from .edmd import (BOX_LIMIT, CHUNK_DONE, EVENT_BUDGET, INF, JAMMED, N_PARAMS, N
                    P_SPEED, P_SYNC_EVERY, P_T_REF, P_T_STOP, REACHED_T_STOP, S_COLLISIONS, S_EVENTS,
                    S_KE_INTEGRAL, S_LOCAL_REBUILDS, S_REBUILDS, S_STATUS, S_TIME, S_VIRIAL, ChunkStatus,
                    _axis_cell, _close_window, _end_chunk, _grid_move, _heap_build, _heap_update, _levels,
-                   _shell_radius, _sync_all, _thermalise, _wrap, exit_time, kinetic_energy,
-                   make_params, pair_time, shell_reach)
+                   _list_pair, _shell_radius, _slab_lists, _sync_all, _thermalise, _unlist, _wrap, exit_time,
+                   kinetic_energy, make_params, pair_time, shell_reach)
 
 __all__ = ["ChunkStatus", "make_params", "run_chunk", "next_event_brute", "N_STATE", "N_PARAMS"]
 
@@ -75,30 +76,7 @@ def build_lists(x, rho, box, level, nlev, pad):
     reach_small = 2.0 * rs[n // 2]
     nc = _choose_ncell(box, n, reach_small)
     pi, pj, _ = pairs_within(x3, rho, box3, 1.0, 0.0, nc)
-    m = pi.shape[0]
-    cnt = np.zeros(n, np.int64)
-    for k in range(m):
-        cnt[pi[k]] += 1
-        cnt[pj[k]] += 1
-    lsum = np.zeros(nlev)
-    lnum = np.zeros(nlev)
-    for i in range(n):
-        lsum[level[i]] += cnt[i]
-        lnum[level[i]] += 1.0
-    off = np.zeros(n + 1, np.int64)
-    for i in range(n):
-        mean_l = lsum[level[i]] / max(lnum[level[i]], 1.0)
-        off[i + 1] = off[i] + int(2.0 * max(cnt[i], mean_l)) + pad
-    nbr = np.empty(off[n], np.int64)
-    nn = np.zeros(n, np.int64)
-    for k in range(m):
-        i = pi[k]
-        j = pj[k]
-        nbr[off[i] + nn[i]] = j
-        nn[i] += 1
-        nbr[off[j] + nn[j]] = i
-        nn[j] += 1
-    return off, nn, nbr
+    return _slab_lists(pi, pj, n, level, nlev, pad)
 
 
 @njit(cache=True)
@@ -186,16 +164,7 @@ def _local_rebuild(i, rho_new, x, box, xb, rho, off, nn, nbr, level, nlev, rho_m
 
     Returns False if a neighbour slab overflowed (the caller then rebuilds globally).
     """
-    for k in range(off[i], off[i] + nn[i]):
-        j = nbr[k]
-        b = off[j]
-        e = b + nn[j]
-        for q in range(b, e):
-            if nbr[q] == i:
-                nbr[q] = nbr[e - 1]
-                nn[j] -= 1
-                break
-    nn[i] = 0
+    _unlist(i, off, nn, nbr)
     xb[i, 0] = x[i, 0]
     xb[i, 1] = x[i, 1]
     rho[i] = rho_new
@@ -204,7 +173,6 @@ def _local_rebuild(i, rho_new, x, box, xb, rho, off, nn, nbr, level, nlev, rho_m
         rho_max_lv[lv_i] = rho_new
     _grid_move(i, coff[lv_i] + _cell_index(xb[i, 0], xb[i, 1], box, nc, lv_i), head, nxt, prv, cell)
     ok = True
-    cap_i = off[i + 1] - off[i]
     xi0 = xb[i, 0]
     xi1 = xb[i, 1]
     ri = rho[i]
@@ -239,12 +207,7 @@ def _local_rebuild(i, rho_new, x, box, xb, rho, off, nn, nbr, level, nlev, rho_m
                         dy = min_image(xb[j, 1] - xi1, box[1])
                         lim = ri + rho[j]
                         if dx * dx + dy * dy <= lim * lim:
-                            if nn[i] < cap_i and nn[j] < off[j + 1] - off[j]:
-                                nbr[off[i] + nn[i]] = j
-                                nn[i] += 1
-                                nbr[off[j] + nn[j]] = i
-                                nn[j] += 1
-                            else:
+                            if not _list_pair(i, j, off, nn, nbr):
                                 ok = False
                     j = nxt[j]
     return ok

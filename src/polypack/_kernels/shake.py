@@ -161,6 +161,39 @@ def _wrap1(x, length):
     return x
 
 
+@njit(cache=True, inline="always")  # numba-level inlining: as fast as written-out code
+def _overlaps(j, x, y, z, ri, pos, radii, lx, ly, lz, fac):
+    """True if sphere ``j`` overlaps a sphere of radius ``ri`` centred at ``(x, y, z)``
+    (minimum image, ``|d| < L`` for wrapped positions; contact margin ``fac``)."""
+    dx = pos[j, 0] - x
+    dy = pos[j, 1] - y
+    dz = pos[j, 2] - z
+    dx -= lx * np.rint(dx / lx)
+    dy -= ly * np.rint(dy / ly)
+    dz -= lz * np.rint(dz / lz)
+    sig = ri + radii[j]
+    return dx * dx + dy * dy + dz * dz < sig * sig * fac
+
+
+@njit(cache=True, inline="always")
+def _contact_time(j, x, y, z, ux, uy, uz, ri, pos, radii, lx, ly, lz):
+    """Distance along the unit vector ``u`` from ``(x, y, z)`` (radius ``ri``) to contact with
+    sphere ``j``: the smaller positive root of ``|x + u t - x_j| = r_i + r_j`` (Eq. (9) of
+    000_2cedc098acbd866b.txt), minimum image; ``inf`` if the path misses ``j`` or leads away."""
+    wx = x - pos[j, 0]
+    wy = y - pos[j, 1]
+    wz = z - pos[j, 2]
+    wx -= lx * np.rint(wx / lx)
+    wy -= ly * np.rint(wy / ly)
+    wz -= lz * np.rint(wz / lz)
+    b = ux * wx + uy * wy + uz * wz
+    sig = ri + radii[j]
+    c = wx * wx + wy * wy + wz * wz - sig * sig
+    disc = b * b - c
+    t = c / (-b + np.sqrt(max(disc, 0.0)))  # stable form of the smaller root
+    return t if (b < 0.0 and disc >= 0.0) else np.inf  # approaching and hitting
+
+
 @njit(cache=True)
 def _no_overlap(i, x, y, z, pos, radii, box, start, idx):
     """True if sphere ``i`` centred at ``(x, y, z)`` overlaps none of its listed neighbours."""
@@ -170,15 +203,7 @@ def _no_overlap(i, x, y, z, pos, radii, box, start, idx):
     ly = box[1]
     lz = box[2]
     for q in range(start[i], start[i + 1]):
-        j = idx[q]
-        dx = pos[j, 0] - x
-        dy = pos[j, 1] - y
-        dz = pos[j, 2] - z
-        dx -= lx * np.rint(dx / lx)  # minimum image (|d| < L for wrapped positions)
-        dy -= ly * np.rint(dy / ly)
-        dz -= lz * np.rint(dz / lz)
-        sig = ri + radii[j]
-        if dx * dx + dy * dy + dz * dz < sig * sig * fac:
+        if _overlaps(idx[q], x, y, z, ri, pos, radii, lx, ly, lz, fac):
             return False
     return True
 
@@ -202,20 +227,7 @@ def _free_flight(i, ux, uy, uz, pos, radii, box, start, idx):
     lz = box[2]
     best = np.inf
     for q in range(start[i], start[i + 1]):
-        j = idx[q]
-        wx = x - pos[j, 0]
-        wy = y - pos[j, 1]
-        wz = z - pos[j, 2]
-        wx -= lx * np.rint(wx / lx)  # minimum image (|w| < L for wrapped positions)
-        wy -= ly * np.rint(wy / ly)
-        wz -= lz * np.rint(wz / lz)
-        b = ux * wx + uy * wy + uz * wz
-        sig = ri + radii[j]
-        c = wx * wx + wy * wy + wz * wz - sig * sig
-        disc = b * b - c
-        t = c / (-b + np.sqrt(max(disc, 0.0)))  # stable form of the smaller root
-        t = t if (b < 0.0 and disc >= 0.0) else np.inf  # approaching and hitting
-        best = min(best, t)
+        best = min(best, _contact_time(idx[q], x, y, z, ux, uy, uz, ri, pos, radii, lx, ly, lz))
     return max(best, 0.0)
 
 
@@ -294,16 +306,8 @@ def _no_overlap_cells(i, x, y, z, pos, radii, box, ncell, head, nxt):
                 cz = (cz0 + oz) % ncell[2]
                 j = head[(cx * ncell[1] + cy) * ncell[2] + cz]
                 while j >= 0:
-                    if j != i:
-                        dx = pos[j, 0] - x
-                        dy = pos[j, 1] - y
-                        dz = pos[j, 2] - z
-                        dx -= lx * np.rint(dx / lx)
-                        dy -= ly * np.rint(dy / ly)
-                        dz -= lz * np.rint(dz / lz)
-                        sig = ri + radii[j]
-                        if dx * dx + dy * dy + dz * dz < sig * sig * fac:
-                            return False
+                    if j != i and _overlaps(j, x, y, z, ri, pos, radii, lx, ly, lz, fac):
+                        return False
                     j = nxt[j]
     return True
 
@@ -332,19 +336,7 @@ def _free_flight_cells(i, ux, uy, uz, pos, radii, box, ncell, head, nxt):
                 j = head[(cx * ncell[1] + cy) * ncell[2] + cz]
                 while j >= 0:
                     if j != i:
-                        wx = x - pos[j, 0]
-                        wy = y - pos[j, 1]
-                        wz = z - pos[j, 2]
-                        wx -= lx * np.rint(wx / lx)
-                        wy -= ly * np.rint(wy / ly)
-                        wz -= lz * np.rint(wz / lz)
-                        b = ux * wx + uy * wy + uz * wz
-                        sig = ri + radii[j]
-                        c = wx * wx + wy * wy + wz * wz - sig * sig
-                        disc = b * b - c
-                        t = c / (-b + np.sqrt(max(disc, 0.0)))
-                        t = t if (b < 0.0 and disc >= 0.0) else np.inf
-                        best = min(best, t)
+                        best = min(best, _contact_time(j, x, y, z, ux, uy, uz, ri, pos, radii, lx, ly, lz))
                     j = nxt[j]
     return max(best, 0.0)
 
