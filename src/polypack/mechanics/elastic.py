@@ -129,9 +129,11 @@ class ElasticTensor:
         Rotation (radians) per unit strain of each mode (None for ``rotations=False``).
     floppy_modes : int or None
         Zero-energy modes of the relaxing part beyond the global translations of each
-        cluster (None when an iterative solver is used).
+        cluster (None when an iterative solver is used): the eigenvalues of the diagonally
+        scaled stiffness below 1e-9, which on near-floppy networks include soft modes.
     solver, iterations, multigrid_levels, residual : str, int or None, list or None, float
-        The solver used, its CG iterations (None for the direct one), the unknowns per
+        The solver used, its CG iterations (for the direct one: None, or those of the
+        factor-preconditioned CG that relaxes soft modes on near-floppy networks), the unknowns per
         AMG level (``solver="amg"``) and the largest relative residual of the six modes.
     factorization : str or None
         The direct solver's library: ``"pardiso"`` (MKL PARDISO through pypardiso) or
