@@ -272,3 +272,29 @@ def test_unconverged_relaxation_is_refused(vem_soft):
     pos, radii, cell, i, j, shift, kn, ks = _arrays(vem_soft)
     with pytest.raises(InfeasibleError, match=r"floppy modes"):
         raw(pos, radii, cell, i, j, shift, kn, ks, 0, 2, maxiter=0)
+
+
+def test_positive_factor_retries_a_zero_pivot_with_a_larger_shift():
+    # a soft spectrum at the round-off floor makes the Cholesky factor of h + shift D fail
+    # (MKL error -4): the Krylov preconditioner is then built with a 1000x larger shift
+    import scipy.sparse as sp
+
+    from polypack.mechanics import elastic as el
+
+    shifts = []
+
+    class FailsOnce:
+        def __init__(self, a, mtype):
+            shifts.append(float(a.diagonal()[0]) - 1.0)
+            if len(shifts) == 1:
+                raise RuntimeError("zero pivot")
+
+    el._positive_factor(FailsOnce, sp.identity(4, format="csr"), np.ones(4), 1e-12)
+    assert shifts == pytest.approx([1e-12, 1e-9], rel=1e-3)
+
+    class AlwaysFails(FailsOnce):
+        def __init__(self, a, mtype):
+            raise RuntimeError("zero pivot")
+
+    with pytest.raises(RuntimeError):
+        el._positive_factor(AlwaysFails, sp.identity(4, format="csr"), np.ones(4), 1e-12)

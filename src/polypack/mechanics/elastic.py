@@ -424,7 +424,7 @@ def _solve_direct(h, b, ref, tau=1e-9, tol=1e-12, max_refine=50, local_modes=Non
     settled = False
     if krylov:
         shifted.free()
-        fac = cls(h + sp.diags(krylov_tau * d), 2)
+        fac = _positive_factor(cls, h, d, krylov_tau)
         x, settled, res, iterations = _solve_cg(h, b, ref, tol=tol, maxiter=max_krylov, prec=fac.solve,
                                                 energy=energy)
         if floppy and floppy - known <= _FLOPPY_BASIS_MAX:
@@ -443,6 +443,20 @@ def _solve_direct(h, b, ref, tau=1e-9, tol=1e-12, max_refine=50, local_modes=Non
         basis = (local_modes, None)
     fac.free()
     return x, floppy, res, basis, backend, iterations, settled
+
+
+def _positive_factor(cls, h, d, shift, tries=3):
+    """Factor of the positive definite ``h + shift D``; a zero pivot (a soft spectrum at the
+    round-off floor, MKL error -4) retries with a 1000 times larger shift."""
+    import scipy.sparse as sp
+
+    for attempt in range(tries):
+        try:
+            return cls(h + sp.diags(shift * d), 2)
+        except Exception:  # noqa: BLE001 - pypardiso raises its own PyPardisoError
+            if attempt == tries - 1:
+                raise
+            shift *= 1e3
 
 
 def _floppy_basis(solve, h, k, local=None, sweeps=6):
