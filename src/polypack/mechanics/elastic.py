@@ -387,8 +387,8 @@ def _solve_direct(h, b, ref, tau=1e-9, tol=1e-12, max_refine=50, local_modes=Non
     iteration on the few remaining modes only. The returned basis holds only the modes
     that carry no energy in the solution (Ritz value times squared component below 1e-12
     of the column's energy): soft modes are response, not floppy.
-    Returns ``(x, floppy, residual, basis, backend, cg_iterations, settled)`` (``settled``:
-    see :func:`_solve_cg`).
+    Returns ``(x, floppy, open_residual, residual, basis, backend, cg_iterations)``
+    (``open_residual``: see :func:`_solve_cg`; the residual itself after refinement).
     """
     import scipy.sparse as sp
 
@@ -421,12 +421,12 @@ def _solve_direct(h, b, ref, tau=1e-9, tol=1e-12, max_refine=50, local_modes=Non
         if not krylov and floppy > known:
             basis, ritz = _floppy_basis(shifted.solve, h, floppy, local_modes)
     iterations = 0
-    settled = False
+    open_res = None
     if krylov:
         shifted.free()
         fac = _positive_factor(cls, h, d, krylov_tau)
-        x, settled, res, iterations = _solve_cg(h, b, ref, tol=tol, maxiter=max_krylov, prec=fac.solve,
-                                                energy=energy)
+        x, open_res, res, iterations = _solve_cg(h, b, ref, tol=tol, maxiter=max_krylov, prec=fac.solve,
+                                                 energy=energy)
         if floppy and floppy - known <= _FLOPPY_BASIS_MAX:
             basis, ritz = _floppy_basis(fac.solve, h, floppy, local_modes)
     if basis is not None and basis[1] is not None:
@@ -442,7 +442,7 @@ def _solve_direct(h, b, ref, tau=1e-9, tol=1e-12, max_refine=50, local_modes=Non
         # mode carries no stress); only the local modes leave the non-affine fields
         basis = (local_modes, None)
     fac.free()
-    return x, floppy, res, basis, backend, iterations, settled
+    return x, floppy, res if open_res is None else open_res, res, basis, backend, iterations
 
 
 def _positive_factor(cls, h, d, shift, tries=3):
@@ -599,11 +599,12 @@ def _solve_cg(h, b, ref, tol=1e-10, maxiter=None, nd=6, progress=None, prec=None
     (The quadratic form ``x^T h x - 2 b^T x`` is no substitute: along a zero mode it
     falls without bound on the round-off part of ``b``.)
 
-    Returns ``(x, settled, residual, iterations)``: ``settled`` is True when some column
-    stopped on that energy rule rather than on ``tol`` (its residual may then stay well
-    above ``tol``: on a near-floppy N = 8000 VEM network 1.5e-6, with a lower, i.e.
-    better, energy than any shifted solve down to a 1e-15 shift), the residual the
-    largest ``|b_j - h x_j| / max(|b_j|, ref)`` of the returned iterate.
+    Returns ``(x, open_residual, residual, iterations)``: ``residual`` is the largest
+    ``|b_j - h x_j| / max(|b_j|, ref)`` of the returned iterate, ``open_residual`` the
+    largest over the columns that did not settle by that energy rule (0 if all did). A
+    settled column's residual may stay well above ``tol``: on a near-floppy N = 8000 VEM
+    network 1.5e-6, with a lower, i.e. better, energy than any shifted solve down to a
+    1e-15 shift.
     """
     k = b.shape[1]
     if prec is None:
@@ -688,8 +689,8 @@ def _solve_cg(h, b, ref, tol=1e-10, maxiter=None, nd=6, progress=None, prec=None
             progress(it, float(res.max()))
     if energy is not None:
         x = best_x
-    r = b - h @ x
-    return x, bool(settled.any()), float((np.linalg.norm(r, axis=0) / bn).max()), it
+    res = np.linalg.norm(b - h @ x, axis=0) / bn
+    return x, float(res[~settled].max(initial=0.0)), float(res.max()), it
 
 
 class _Multigrid:
@@ -962,10 +963,9 @@ def elastic_tensor(network, rotations=True, *, radius=None, solver="auto", tol=1
     if method == "direct":
         hr = h.tocsr()[keep][:, keep]
         local = _local_spin_modes(n, nd, keep, bi, bj, bonds[6], bonds[7], ell)
-        x_r, floppy, res, basis, factorization, krylov, settled = _solve_direct(hr, rhs[keep], ref, tol=min(tol, 1e-12),
-                                                                       local_modes=local,
-                                                                       energy=lambda y: relaxed_energy(y, keep))
-        iterations = krylov or None
+        x_r, floppy, open_res, res, basis, factorization, cg_iterations = _solve_direct(
+            hr, rhs[keep], ref, tol=min(tol, 1e-12), local_modes=local, energy=lambda y: relaxed_energy(y, keep))
+        iterations = cg_iterations or None
     else:
         import scipy.sparse as sp
 
@@ -982,13 +982,13 @@ def elastic_tensor(network, rotations=True, *, radius=None, solver="auto", tol=1
             mg = _Multigrid(hp, nd, np.asarray(network.packing.positions, dtype=np.float64)[active], ell)
             prec = mg
             levels = mg.sizes
-        x_full, settled, res, iterations = _solve_cg(hp, rhs, ref, tol=tol, nd=nd, prec=prec, energy=relaxed_energy)
+        x_full, open_res, res, iterations = _solve_cg(hp, rhs, ref, tol=tol, nd=nd, prec=prec, energy=relaxed_energy)
         floppy = None
         x_r = x_full[keep]
-    if not (res <= _RESIDUAL_LIMIT or settled):
-        # neither a small residual nor an energy that stopped falling: not relaxed
+    if not open_res <= _RESIDUAL_LIMIT:
+        # a column with neither a small residual nor an energy that stopped falling: not relaxed
         raise InfeasibleError(
-            f"elastic_tensor: the relaxation did not converge (solver={method!r}: relative residual {res:.2g}"
+            f"elastic_tensor: the relaxation did not converge (solver={method!r}: relative residual {open_res:.2g}"
             + (f" after {iterations} CG iterations" if iterations else "")
             + f", limit {_RESIDUAL_LIMIT:g}, energy still falling; Z = {network.coordination:.3g})"
             + ("; near-floppy networks need solver='direct'" if method != "direct" else "")
