@@ -1,8 +1,8 @@
-"""One declaration per capability: PSD models, packing protocols, analyses (and later mechanics).
+"""One declaration per capability: PSD models, packing protocols, analyses, mechanics stages.
 
 A capability is declared once, with
 
-* its ``kind`` (``"psd"``, ``"protocol"``, ``"analysis"``) and TOML/CLI ``name``;
+* its ``kind`` (``"psd"``, ``"protocol"``, ``"analysis"``, ``"mechanics"``) and TOML/CLI ``name``;
 * an **options dataclass** whose fields carry their check (type and bounds, from
   :mod:`polypack._validate`), default and doc in the field metadata (use :func:`option`);
 * the function that runs it, as ``"module:function"`` (imported only when it runs, so
@@ -24,6 +24,9 @@ Run signatures (what the ``run`` target receives):
 
 ``analysis``  ``run(packing, options: dict, seed: numpy.random.SeedSequence)`` returning an
               object with ``to_dict()`` (or a list of them), or a plain dict.
+``mechanics`` the same as ``analysis`` (a mechanics stage reads the pack and returns its
+              results); analyses and mechanics stages share the study's ``[analysis.NAME]``
+              tables (:func:`stages`), so their names are unique across both kinds.
 ``protocol``  ``run(sizes, options: dict, seed: numpy.random.SeedSequence, monitor=None) -> Packing``;
               ``monitor`` is the convergence monitor the runner passes (see :func:`polypack.shake`).
 ``psd``       ``run(**parameters)`` returning a size-distribution model (``.sample``,
@@ -60,12 +63,16 @@ __all__ = [
     "names",
     "capabilities",
     "discover",
+    "stages",
+    "STAGE_KINDS",
     "option_specs",
     "resolve_table",
     "ENTRY_POINT_GROUP",
 ]
 
-KINDS = ("psd", "protocol", "analysis")
+KINDS = ("psd", "protocol", "analysis", "mechanics")
+#: Kinds whose capabilities run on a finished pack, one ``[analysis.NAME]`` table each.
+STAGE_KINDS = ("analysis", "mechanics")
 ENTRY_POINT_GROUP = "polypack.capabilities"
 
 
@@ -154,6 +161,18 @@ class Outputs:
         The curves of the result, if any.
     files : tuple of str
         Names of extra files the run writes (documentation).
+    meta : tuple of str or None
+        Protocols only: the sub-tables of ``packing.meta`` that hold the protocol's run
+        statistics (``meta["vem"]``); their numbers, strings and the last row of their
+        per-species histories reach the realization record and ``summary.csv`` as
+        ``protocol.<table>.<key>`` (:func:`polypack.ensemble.stages.protocol_stats`).
+        ``None``: the sub-table named like the protocol, if any.  Top-level scalars of
+        ``packing.meta`` (``status``, ``min_gap``, ...) are always recorded, or only those in
+        ``scalars`` when it is given.
+    labels : dict
+        Words for the report's rows: ``{column: words}`` where ``column`` is the summary
+        column without the stage prefix (``"stages"`` for ``protocol.vem.stages`` or
+        ``elastic.stages``; a protocol may also give the full ``"vem.stages"``).
     """
 
     scalars: tuple | None = None
@@ -161,6 +180,8 @@ class Outputs:
     flatten: tuple = ()
     curves: Curves | None = None
     files: tuple = ()
+    meta: tuple | None = None
+    labels: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -179,6 +200,21 @@ class Capability:
     preflight: Any = None  # preflight(resolved_options, info, path): before a study runs (info: box estimate)
     kernels: tuple = ()  # numba kernel modules it runs ("polypack._kernels.edmd"): compiled once before a pool
     origin: str = ""
+    label: str = ""  # display name in reports and figure legends ("VEM"); default: the name
+
+    @property
+    def title(self) -> str:
+        """The display name (``label`` or ``name``)."""
+        return self.label or self.name
+
+    def meta_tables(self) -> tuple:
+        """Protocols: the ``packing.meta`` sub-tables of its declared run statistics."""
+        m = self.outputs.meta
+        return (self.name,) if m is None else tuple(m)
+
+    def words(self, column: str) -> str:
+        """The declared words of a summary column (without the stage prefix), or ``""``."""
+        return str(self.outputs.labels.get(column, ""))
 
     def load(self) -> Callable:
         """The run function (imported on first use)."""
@@ -279,14 +315,18 @@ _DISCOVERING = False
 
 
 def register(kind: str, name: str, options, run, outputs: Outputs | None = None, *, doc: str = "",
-             aliases=(), requires=(), check=None, preflight=None, kernels=(), replace: bool = False) -> Capability:
+             aliases=(), requires=(), check=None, preflight=None, kernels=(), replace: bool = False,
+             label: str = "") -> Capability:
     """Declare a capability (see the module docstring); returns it.
+
+    ``label`` is its display name in reports (default: ``name``).
 
     Raises
     ------
     InvalidInputError
-        Unknown ``kind``, a name already registered (unless ``replace``), or options that
-        are not a dataclass made with :func:`option`.
+        Unknown ``kind``, a name already registered (unless ``replace``; analyses and
+        mechanics stages share one namespace), or options that are not a dataclass made
+        with :func:`option`.
     """
     if kind not in KINDS:
         raise InvalidInputError(f"kind={kind!r}: allowed are {', '.join(map(repr, KINDS))}")
@@ -296,8 +336,15 @@ def register(kind: str, name: str, options, run, outputs: Outputs | None = None,
         raise InvalidInputError(f"options of {kind} {name!r} must be a dataclass (fields made with option())")
     if name in _REGISTRY[kind] and not replace:
         raise InvalidInputError(f"{kind} {name!r} is already registered (by {_REGISTRY[kind][name].origin or '?'})")
+    if kind in STAGE_KINDS:
+        for other in STAGE_KINDS:
+            if other != kind and name in _REGISTRY[other]:
+                if not replace:
+                    raise InvalidInputError(f"{kind} {name!r}: the name is taken by {other} {name!r} (by "
+                                            f"{_REGISTRY[other][name].origin or '?'}); both are [analysis.{name}]")
+                unregister(other, name)
     cap = Capability(kind, name, options, run, outputs or Outputs(), doc, tuple(aliases), tuple(requires),
-                     check, preflight, tuple(kernels), origin=_caller_module())
+                     check, preflight, tuple(kernels), origin=_caller_module(), label=label)
     _REGISTRY[kind][name] = cap
     for a in cap.aliases:
         _ALIASES[kind][a] = name
@@ -331,11 +378,23 @@ def names(kind: str) -> tuple[str, ...]:
     return tuple(capabilities(kind))
 
 
+def stages() -> dict[str, Capability]:
+    """``{name: Capability}`` of every stage a study's ``[analysis.NAME]`` table can name:
+    the analyses, then the mechanics stages (:data:`STAGE_KINDS`)."""
+    out = {}
+    for kind in STAGE_KINDS:
+        out.update(capabilities(kind))
+    return out
+
+
 def canonical(kind: str, name: str) -> str:
     """The registered name for ``name`` or one of its aliases (hyphens read as underscores)."""
     discover()
     key = name.strip().lower().replace("-", "_") if isinstance(name, str) else name
-    return _ALIASES[kind].get(key, key)
+    for k in (STAGE_KINDS if kind in STAGE_KINDS else (kind,)):
+        if key in _ALIASES[k]:
+            return _ALIASES[k][key]
+    return key
 
 
 def get(kind: str, name: str, path: str | None = None) -> Capability:
@@ -346,7 +405,7 @@ def get(kind: str, name: str, path: str | None = None) -> Capability:
     InvalidInputError
         Unknown name; the message lists the registered ones.
     """
-    caps = capabilities(kind)
+    caps = stages() if kind in STAGE_KINDS else capabilities(kind)  # one namespace: [analysis.NAME]
     key = canonical(kind, name) if isinstance(name, str) else name
     if key not in caps:
         where = path or kind

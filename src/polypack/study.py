@@ -180,7 +180,7 @@ def schema() -> dict:
         for k, s in cap.specs().items():
             proto.setdefault(k, s)
     out["protocol"] = proto
-    for name, cap in registry.capabilities("analysis").items():
+    for name, cap in registry.stages().items():  # analyses and mechanics stages
         out[f"analysis.{name}"] = cap.specs()
     out["output"] = registry.option_specs(OutputOptions)
     del psd_config
@@ -204,7 +204,7 @@ def __getattr__(name):
     if name == "PSD_MODELS":
         return {n: (c.run, tuple(c.specs())) for n, c in registry.capabilities("psd").items()}
     if name == "ANALYSES":
-        return registry.names("analysis")
+        return tuple(registry.stages())
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
@@ -278,7 +278,7 @@ def validate(data, name=None) -> dict:
     ana = data.get("analysis", {})
     if not isinstance(ana, dict):
         raise InvalidInputError(f"analysis = {_fmt(ana)}: expected tables such as [analysis.rdf]")
-    analyses = registry.capabilities("analysis")
+    analyses = registry.stages()  # analyses and mechanics stages share [analysis.NAME]
     res["analysis"] = {}
     for key, table in ana.items():
         if key not in analyses:

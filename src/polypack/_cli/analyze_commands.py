@@ -157,7 +157,7 @@ def run_registered(pk, specs, seed=1):
 def register(app: typer.Typer) -> None:
     from .. import registry
 
-    names = ", ".join(registry.names("analysis"))
+    names = ", ".join(registry.stages())  # analyses and mechanics stages
 
     @app.command()
     def analyze(

@@ -53,7 +53,7 @@ MODULI_ESTIMATES = ("mori_tanaka", "self_consistent", "hs_lower", "hs_upper", "t
                     "three_point_upper", "mefm")
 
 register(
-    "analysis", "moduli", ModuliOptions, "polypack.ensemble.moduli_stage:run_moduli",
+    "mechanics", "moduli", ModuliOptions, "polypack.ensemble.moduli_stage:run_moduli",
     Outputs(scalars=("volume_fraction", "zeta2", "eta2"), flatten=MODULI_ESTIMATES),
     doc="effective moduli of the composite (MT, SC, HS, three-point bounds, MEFM), §4 of 000_2cedc098acbd866b.txt",
     requires=("polypack.mechanics:mori_tanaka", "polypack.analysis:ThreePointParameters"),

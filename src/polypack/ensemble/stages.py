@@ -267,20 +267,29 @@ def _is_num(v):
     return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
 
 
-def protocol_stats(meta: dict) -> dict:
-    """Scalar run statistics of the protocol for the summary table.
+def protocol_stats(meta: dict, protocol=None) -> dict:
+    """Scalar run statistics of the protocol for the record and the summary table.
 
-    Top-level ``meta`` scalars (the packer's: status, collisions, reduced pressure ...)
-    keep their names; ``meta["shake"]``, ``meta["scrm"]`` and ``meta["brownian"]`` scalars get a
-    ``shake.`` / ``scrm.`` / ``brownian.`` prefix; per-shake histories give their last row per species
-    (``shake.acceptance_rate.0``), the contact-value monitor its last value per pair.
+    What is recorded is what the protocol declares (:attr:`polypack.registry.Outputs.meta`
+    and ``scalars`` of its registration; ``protocol`` is its name or
+    :class:`~polypack.registry.Capability`, default: the generator named in ``meta``):
+    top-level ``meta`` scalars (the packer's: status, collisions, reduced pressure ...)
+    keep their names; the scalars of each declared sub-table (``meta["shake"]``,
+    ``meta["vem"]`` ...) get its name as prefix (``vem.stages``); per-shake histories give
+    their last row per species (``shake.acceptance_rate.0``), the contact-value monitor its
+    last value per pair, a list of stages its length.
     """
+    cap = _protocol_cap(meta, protocol)
+    top = cap.outputs.scalars if cap is not None else None
+    tables = cap.meta_tables() if cap is not None else ()
     out = {}
     for k, v in meta.items():
         if k in ("seed", "history") or isinstance(v, (list, dict, tuple, np.ndarray)):
             continue
+        if top is not None and k not in top:
+            continue
         out[k] = _jsonable(v)
-    for sub in ("shake", "scrm", "brownian"):
+    for sub in tables:
         d = meta.get(sub)
         if not isinstance(d, dict):
             continue
@@ -302,6 +311,23 @@ def protocol_stats(meta: dict) -> dict:
             elif k == "stages" and isinstance(v, list):
                 out[f"{sub}.stages"] = len(v)
     return out
+
+
+def _protocol_cap(meta, protocol):
+    """The registered protocol whose declaration says which statistics to record."""
+    if isinstance(protocol, registry.Capability):
+        return protocol
+    name = protocol
+    if name is None:  # a pack made outside a study: the generator that made it
+        name = meta.get("generator") or meta.get("protocol")
+        if name == "pack" or name == "lubachevsky":
+            name = "crm"
+    if not isinstance(name, str):
+        return None
+    try:
+        return registry.get("protocol", name)
+    except InvalidInputError:
+        return None
 
 
 def _flatten(prefix, v, out):
@@ -375,7 +401,7 @@ def realize(study_data: dict, index: int, seed_rec: dict):
         "volume_fraction": float(packing.volume_fraction),
         "species_counts": [int(c) for c in np.asarray(packing.species_counts)],
         "box": [float(x) for x in packing.box],
-        "protocol": protocol_stats(dict(packing.meta)),
+        "protocol": protocol_stats(dict(packing.meta), _protocol(study_data)),
         "psd": psd_scalars,
         "analysis": analyses,
         "scalars": scalar_descriptors(analyses),

@@ -119,11 +119,14 @@ def check_scrm(pr: dict, path: str = "protocol") -> None:
         )
 
 
-register("protocol", "crm", CRMOptions, run_crm, Outputs(),
+_SHAKE_WORDS = {"shake.acceptance_rate.0": "acceptance rate of the last global shake (species 0)",
+                "shake.global_shakes": "global shakes M", "shake.stages": "global shakes run"}
+
+register("protocol", "crm", CRMOptions, run_crm, Outputs(meta=("shake",), labels=_SHAKE_WORDS), label="CRM",
          doc="CRM (Lubachevsky–Stillinger growth), §3.1 of 000_2cedc098acbd866b.txt; then M global shakes",
          requires=("polypack.generate:pack",), check=check_crm,
          kernels=("polypack._kernels.cells", "polypack._kernels.edmd", "polypack._kernels.shake"))
-register("protocol", "scrm", SCRMOptions, run_scrm, Outputs(),
+register("protocol", "scrm", SCRMOptions, run_scrm, Outputs(meta=("shake", "scrm"), labels=_SHAKE_WORDS), label="SCRM",
          doc="SCRM: CRM growth interleaved with shaking, §3.2 of 000_2cedc098acbd866b.txt",
          requires=("polypack.generate:pack", "polypack.generate:scrm", "polypack.generate:shake"),
          check=check_scrm, kernels=("polypack._kernels.cells", "polypack._kernels.edmd", "polypack._kernels.shake"))
@@ -171,7 +174,16 @@ def check_vem(pr: dict, path: str = "protocol") -> None:
                                 f"{MAX_VOLUME_FRACTION:g}]")
 
 
-register("protocol", "vem", VEMOptions, run_vem, Outputs(),
+#: Words of the VEM statistics in the report (``protocol.vem.<key>`` in summary.csv).
+VEM_WORDS = {
+    "vem.stages": "void expansion stages", "vem.n_void": "void spheres N_V",
+    "vem.coordination_at_jamming": "coordination of the structure at jamming",
+    "vem.bonds_at_jamming": "structure bonds at jamming", "vem.final_void_diameter": "final void diameter (length units)",
+    "vem.steps": "DEM steps", "vem.separation_sweeps": "overlap-removal sweeps",
+    "vem.overlap_before_separation": "largest relative overlap before separation", "vem.wall_time": "wall time, s",
+}
+
+register("protocol", "vem", VEMOptions, run_vem, Outputs(meta=("vem",), labels=VEM_WORDS), label="VEM",
          doc="void expansion method (VEM), §2.2 of 003_873b69fc71c74cf6.txt: heterogeneous structures at Φ",
          requires=("polypack.generate:vem",), check=check_vem,
          kernels=("polypack._kernels.cells", "polypack._kernels.edmd", "polypack._kernels.contacts",
@@ -235,11 +247,19 @@ class DepositOptions:
 
 
 _P = "polypack.generate.protocols:"
-register("protocol", "brownian", BrownianOptions, _P + "run_brownian", Outputs(),
+register("protocol", "brownian", BrownianOptions, _P + "run_brownian", Outputs(meta=("brownian",)), label="Brownian",
          doc="colloidal gel by Brownian dynamics with DLVO forces, §2.2 of 003_873b69fc71c74cf6.txt",
          requires=("polypack.generate:brownian",), check=_P + "check_brownian", preflight=_P + "preflight_brownian",
          kernels=("polypack._kernels.bd",))
-register("protocol", "deposit", DepositOptions, _P + "run_deposit", Outputs(),
+#: Words of the deposition statistics (top-level ``meta`` scalars: ``protocol.<key>`` in summary.csv).
+DEPOSIT_WORDS = {
+    "n_bed": "bed disks", "chain_length": "free-surface chain length at the end (2D)",
+    "chain_max": "longest free-surface chain (2D)", "alive": "live surface spheres at the end (3D)",
+    "alive_max": "most live surface spheres (3D)", "overhang_placements": "overhang placements (3D)",
+    "candidate_searches": "candidate searches (3D)", "improving_searches": "improving searches (3D)",
+}
+
+register("protocol", "deposit", DepositOptions, _P + "run_deposit", Outputs(meta=(), labels=DEPOSIT_WORDS),
          doc="sequential deposition of disks (2D) or spheres (3D) by potential minimisation, §2.4 of 001_ad5bae0acea940c4.txt",
          requires=("polypack.generate:deposit",), preflight=_P + "preflight_deposit",
          kernels=("polypack._kernels.deposit", "polypack._kernels.deposit3d"))

@@ -1,5 +1,8 @@
 """Registry declarations of the mechanics stages (``[analysis.elastic]``, ``[analysis.shear]``).
 
+Kind ``"mechanics"`` (:data:`polypack.registry.STAGE_KINDS`): a study names them in
+``[analysis.NAME]`` tables beside the analyses, and they run on the finished pack.
+
 The code lives in :mod:`polypack.mechanics.stages`; the summary scalars of each stage are
 listed here (names ``elastic.<key>`` / ``shear.<key>`` in ``summary.csv`` and ``ensemble/scalars.json``;
 documented in ``docs/mechanics.md``, "Study stages").
@@ -56,7 +59,7 @@ ELASTIC_SCALARS = (
 )
 
 register(
-    "analysis", "elastic", ElasticOptions, "polypack.mechanics.stages:run_elastic",
+    "mechanics", "elastic", ElasticOptions, "polypack.mechanics.stages:run_elastic",
     Outputs(scalars=ELASTIC_SCALARS, flatten=("shear_moduli",)),
     doc="exact elastic tensor of the bonded network (static limit of the shear test of 003_873b69fc71c74cf6.txt §2.4)",
     requires=("polypack.mechanics:elastic_tensor",), preflight="polypack.mechanics.stages:preflight_3d",
@@ -124,7 +127,7 @@ SHEAR_SCALARS = (
 )
 
 register(
-    "analysis", "shear", ShearOptions, "polypack.mechanics.stages:run_shear",
+    "mechanics", "shear", ShearOptions, "polypack.mechanics.stages:run_shear",
     Outputs(scalars=SHEAR_SCALARS, flatten=("direction",)),
     doc="oscillatory shear test by bonded DEM: G', G'' (§2.4 of 003_873b69fc71c74cf6.txt)",
     requires=("polypack.mechanics:oscillatory_shear",), preflight="polypack.mechanics.stages:preflight_3d",

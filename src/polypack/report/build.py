@@ -276,21 +276,44 @@ def _t_half(entry):
     return float(stdtrit(n - 1, 0.975)) * float(se)
 
 
-def _scalar_rows(scalars, prefix_filter):
+def _declared_words(key, study=None) -> str:
+    """Words of a summary column as its capability declares them (``Outputs.labels``)."""
+    from .. import registry
+
+    try:
+        if key.startswith("protocol."):
+            kind = (study or {}).get("protocol", {}).get("kind")
+            if not kind:
+                return ""
+            return registry.get("protocol", kind).words(key[len("protocol."):])
+        head, _, rest = key.partition(".")
+        base = head.rstrip("0123456789")  # windows0, windows1 ...
+        return registry.get("analysis", base).words(rest) if rest else ""
+    except PolypackError:
+        return ""
+
+
+def _scalar_rows(scalars, prefix_filter, study=None):
     rows = []
     for k, e in scalars.items():
         if k == "excluded" or not isinstance(e, dict) or not prefix_filter(k):
             continue
         half = _t_half(e)
-        words = _WORDS.get(k, "")
+        words = _WORDS.get(k) or _declared_words(k, study)
         rows.append((("html", f"{_esc(words)}{'<br>' if words else ''}<span class='key'>{_esc(k)}</span>"),
                      e.get("mean"), half, e.get("n")))
     return rows
 
 
 def _protocol_label(study):
+    """The protocol's registered display name (``label`` of its registration)."""
+    from .. import registry
+
     kind = str(study.get("protocol", {}).get("kind", "pack"))
-    return kind.upper() if kind in ("crm", "scrm", "vem") else kind
+    try:
+        return registry.get("protocol", kind).title
+    except PolypackError:
+        return kind
 
 
 def _species_volume_fractions(pk):
@@ -450,8 +473,8 @@ def run_report_html(out, *, color=None, theory=False, compare=(), plots_dir=None
     status = f'<p class="status {status_cls}">{_esc(run.status_text())}</p>'
     sc = run.scalars or {}
     excluded = sc.get("excluded") or (run.curves or {}).get("excluded") or []
-    summary = _scalar_rows(sc, lambda k: not k.startswith("protocol."))
-    proto = _scalar_rows(sc, lambda k: k.startswith("protocol."))
+    summary = _scalar_rows(sc, lambda k: not k.startswith("protocol."), run.study)
+    proto = _scalar_rows(sc, lambda k: k.startswith("protocol."), run.study)
     hdr = ("quantity (summary.csv column)", "mean", "95 % half-width", "realizations")
     statuses = {}
     for r in run.records:
