@@ -193,7 +193,8 @@ class DepositStatistics(Estimator):
         rad = np.ascontiguousarray(packing.radii, dtype=np.float64)
         per = list(packing.periodic[:2])
         box = np.array(packing.box, dtype=np.float64)
-        if per[1] and not per[0]:  # the slice kernel takes a periodic x only: swap x and y
+        swapped = bool(per[1] and not per[0])
+        if swapped:  # the slice kernel takes a periodic x only: swap x and y
             pos[:, [0, 1]] = pos[:, [1, 0]]
             box[[0, 1]] = box[[1, 0]]
             per = [True, False]
@@ -230,7 +231,10 @@ class DepositStatistics(Estimator):
             sel = infoot & (pos[:, 2] >= edges[b]) & (pos[:, 2] < edges[b + 1])
             if sel.any():
                 mean_d[b] = 2.0 * rad[sel].mean()
-        return self._record(np.array([lo[0], hi[0], lo[1], hi[1], lo[2], hi[2]]), rho, zin, shares, inside, edges, frac, mean_d)
+        window = np.array([lo[0], hi[0], lo[1], hi[1], lo[2], hi[2]])
+        if swapped:  # report the window in the pack's own axis order
+            window = window[[2, 3, 0, 1, 4, 5]]
+        return self._record(window, rho, zin, shares, inside, edges, frac, mean_d)
 
     # ------------------------------------------------------------------ results
     @property
