@@ -25,7 +25,7 @@ def test_relaxation_ratio_of_overlapping_spheres_in_a_line_is_the_hand_value(ov1
     steps, ratio = asm.relax(1e-12, 1, 1)
     f1, f2 = ov1, ov2
     assert steps == 1
-    assert ratio == pytest.approx((f1 + abs(f1 - f2) + f2) / (2.0 * (f1 + f2)), rel=1e-9)
+    assert ratio == pytest.approx((f1 + abs(f1 - f2) + f2) / (2.0 * (f1 + f2)), rel=1e-9, abs=0)
 
 
 def test_relaxation_stops_once_the_ratio_is_below_the_tolerance():
@@ -33,7 +33,7 @@ def test_relaxation_stops_once_the_ratio_is_below_the_tolerance():
     with tolerance 0.9 (which runs its whole budget)."""
     pos = np.array([[5.0, 10.0, 10.0], [6.98, 10.0, 10.0]])
     asm = _Assembly(pos.copy(), np.ones(2), np.full(3, 20.0), 2, 1.0, 0.1, 1.0, 0.1, 0.0, 0.7, 0.4)
-    assert asm.relax(1.5, 1, 5) == (1, pytest.approx(1.0, rel=1e-9))
+    assert asm.relax(1.5, 1, 5) == (1, pytest.approx(1.0, rel=1e-9, abs=0))
     asm = _Assembly(pos.copy(), np.ones(2), np.full(3, 20.0), 2, 1.0, 0.1, 1.0, 0.1, 0.0, 0.7, 0.4)
     steps, _ = asm.relax(0.9, 1, 5)
     assert steps == 5
@@ -61,7 +61,7 @@ def test_overlap_projection_moves_a_pair_apart_symmetrically_to_the_target(perio
     lim = 1.5 * target
     status, sweeps, worst = V.separate(pos, radii, box, np.array([0], np.int64), np.array([1], np.int64), target, 10)
     assert status == V.SEPARATE_DONE and sweeps == 2
-    assert worst == pytest.approx(0.2, rel=1e-12)
+    assert worst == pytest.approx(0.2, rel=1e-12, abs=0)
     mid = 0.5 * (pi_ + pj_)
     exp_i, exp_j = mid - 0.5 * lim * u, mid + 0.5 * lim * u
     if periodic_image:

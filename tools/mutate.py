@@ -517,6 +517,99 @@ MUTANTS += [
 ]
 
 
+# round 3 (issue 37): the weak areas of the property half, each caught by an oracle test
+T_PO = ("tests/test_property_oracles.py",)
+T_ROT = ("tests/test_dem_rotations.py",)
+T_VI = ("tests/test_vem_internals.py",)
+T_DPW = ("tests/test_deposit_periodic_window.py",)
+T_WALK = ("tests/test_stage_option_walk.py",)
+MUTANTS += [
+    # fit and ensemble statistics
+    Mutant("r3-fit-dof", A + "powerlaw.py", "    dof = a.size - 3\n", "    dof = a.size - 2\n",
+           T_PO + ("tests/test_powerlaw.py",), "off-by-one (degrees of freedom of chi2/dof)"),
+    Mutant("r3-fit-dof-refit", A + "powerlaw.py",
+           "(keep.size - 3) if keep.size > 3", "(keep.size - 2) if keep.size > 3",
+           T_PO + ("tests/test_powerlaw.py",), "off-by-one (degrees of freedom of the refit)"),
+    Mutant("r3-report-t-dof", "src/polypack/report/build.py",
+           "float(stdtrit(n - 1, 0.975))", "float(stdtrit(n, 0.975))",
+           T_PO + ("tests/test_report.py",), "off-by-one (Student t of the report)"),
+    # DLVO parameter conversions, BD adhesion
+    Mutant("r3-dlvo-ionic-11", G + "dlvo.py",
+           "ion = eps * BOLTZMANN * T / (2.0 * AVOGADRO", "ion = eps * BOLTZMANN * T / (AVOGADRO",
+           T_PO + T_BD, "dropped factor (1:1 electrolyte, Debye length -> ionic strength)"),
+    Mutant("r3-dlvo-kappa-11", G + "dlvo.py",
+           "kappa2 = 2.0 * AVOGADRO", "kappa2 = AVOGADRO",
+           T_PO + T_BD, "dropped factor (1:1 electrolyte, ionic strength -> Debye length)"),
+    Mutant("r3-dlvo-stokes", G + "dlvo.py",
+           "return self.kT / (6.0 * math.pi * self.viscosity * self.radius)",
+           "return self.kT / (4.0 * math.pi * self.viscosity * self.radius)",
+           T_PO + T_BD, "wrong coefficient (Stokes drag)"),
+    Mutant("r3-bd-adhesion-plane", G + "brownian.py",
+           "f_adh = p.hamaker * a / (12.0 * p.minimum_separation ** 2)",
+           "f_adh = p.hamaker * a / (6.0 * p.minimum_separation ** 2)",
+           T_PO + ("tests/test_brownian_tangential.py",), "sphere-plane for sphere-sphere (Derjaguin)"),
+    # options dropped inside study stages
+    Mutant("r3-stage-shear-friction", M + "stages.py",
+           '"safety", "mass_scale", "damping", "friction", "density"', '"safety", "mass_scale", "damping", "density"',
+           T_WALK + T_ST, "option dropped ([analysis.shear] friction)"),
+    Mutant("r3-stage-shear-strength", M + "stages.py",
+           'for k in ("normal_strength", "shear_strength", "reference") if k in opts}',
+           'for k in ("normal_strength", "reference") if k in opts}',
+           T_WALK + T_ST, "option dropped (shear strength never reaches the network builder)"),
+    Mutant("r3-stage-vem-key", G + "_capabilities.py",
+           '"jam_overlap", "final_relaxation", "structure_contacts")', '"jam_overlap", "final_relaxation")',
+           T_WALK + ("tests/test_pipeline_options.py",), "option dropped ([protocol] structure_contacts of vem)"),
+    Mutant("r3-stage-brownian-key", G + "protocols.py",
+           '"hydrodynamics", "lubrication_range")', '"hydrodynamics")',
+           T_WALK + ("tests/test_stages_protocols.py",), "option dropped ([protocol] lubrication_range)"),
+    # DEM rotations
+    Mutant("r3-contact-twist-mean", K + "contacts.py",
+           "            wn = 0.5 * ((omg[i, 0] + omg[j, 0]) * nx", "            wn = ((omg[i, 0] + omg[j, 0]) * nx",
+           T_ROT + T_DEM, "factor 2 (mean spin of the pair)"),
+    Mutant("r3-contact-twist-sign", K + "contacts.py",
+           "            fx += wn * tx\n            fy += wn * ty\n            fz += wn * tz\n",
+           "            fx -= wn * tx\n            fy -= wn * ty\n            fz -= wn * tz\n",
+           T_ROT + T_DEM, "wrong sign (twist of the shear force)"),
+    Mutant("r3-contact-tilt-magnitude", K + "contacts.py",
+           "                sc = np.sqrt(f2 / g2)\n", "                sc = 1.0\n",
+           T_ROT + T_DEM, "dropped step (magnitude of the rotated shear force)"),
+    Mutant("r3-dem-inertia", M + "dem.py",
+           "return mass, 0.4 * mass * radii**2", "return mass, 2.0 / 3.0 * mass * radii**2",
+           T_ROT + T_DEM, "wrong coefficient (moment of inertia: shell for solid sphere)"),
+    Mutant("r3-dem-rot-mass", K + "dem.py",
+           "wn = w + (tq + td) * dt / ii", "wn = w + (tq + td) * dt / mi",
+           T_ROT + T_DEM, "mass for moment of inertia"),
+    Mutant("r3-dem-damp-flow-spin", K + "dem.py",
+           "                    wr = w - spin\n", "                    wr = w\n",
+           T_ROT + T_DEM, "damps the flow's own spin (Lees-Edwards)"),
+    Mutant("r3-dem-flow-spin-sense", K + "dem.py",
+           "sgn = 1.0 if (g - a) % 3 == 2 else -1.0", "sgn = 1.0 if (g - a) % 3 == 1 else -1.0",
+           T_ROT + T_DEM, "wrong sign (sense of the flow's spin)"),
+    Mutant("r3-crit-rot-inertia", M + "_dem_stiffness.py",
+           "minv.reshape(-1, 6)[:, 3:] = 1.0 / np.sqrt(inertia)[:, None]",
+           "minv.reshape(-1, 6)[:, 3:] = 1.0 / np.sqrt(mass)[:, None]",
+           T_ROT + T_DST, "mass for moment of inertia (critical step)"),
+    # VEM internals
+    Mutant("r3-vem-ratio-half", G + "vem.py",
+           "ratio = fu / (2.0 * fc) if fc > 0 else 0.0", "ratio = fu / fc if fc > 0 else 0.0",
+           T_VI + T_VEM, "factor 2 (unbalanced-force ratio)"),
+    Mutant("r3-vem-projection-full", K + "vem.py",
+           "corr = 0.5 * (lim - d) / d", "corr = (lim - d) / d",
+           T_VI + T_VEM, "factor 2 (overlap-removal projection)"),
+    # deposit statistics, one periodic side axis
+    Mutant("r3-dep3-swap-box", A + "deposits.py",
+           "            box[[0, 1]] = box[[1, 0]]\n", "",
+           T_DPW + T_DEP3, "dropped swap (box of a y-periodic deposit)"),
+    Mutant("r3-dep3-periodic-margin", A + "deposits.py",
+           "lo = np.array([0.0 if per[0] else margin, 0.0 if per[1] else margin, margin])",
+           "lo = np.array([margin, 0.0 if per[1] else margin, margin])",
+           T_DPW + T_DEP3, "margin on a periodic axis"),
+    Mutant("r3-dep3-images", A + "deposits.py",
+           "float(box[0]), bool(per[0]))", "float(box[0]), False)",
+           T_DPW + T_DEP3, "periodic images ignored"),
+]
+
+
 def _kernel_digest(src: Path) -> str:
     h = hashlib.sha1()
     for p in sorted((src / "polypack" / "_kernels").glob("*.py")):
