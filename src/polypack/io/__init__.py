@@ -35,8 +35,9 @@ from pathlib import Path
 
 from ..errors import InvalidInputError
 from ..packing import Packing
+from .voxel import VoxelImage, voxelize, write_image  # voxel images of packs (issue 34)
 
-__all__ = ["write", "read", "read_with_info", "FORMATS", "format_for"]
+__all__ = ["write", "read", "read_with_info", "FORMATS", "format_for", "voxelize", "write_image", "VoxelImage"]
 
 # format name -> (module, extensions, readable)
 FORMATS: dict[str, tuple[str, tuple[str, ...], bool]] = {

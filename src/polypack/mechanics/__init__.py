@@ -31,6 +31,9 @@ _LAZY = {
     "elastic_tensor": "elastic",
     "ElasticTensor": "elastic",
     "voigt_average": "elastic",
+    # full-field FFT homogenization of voxel images (issue 34)
+    "homogenize": "fullfield",
+    "Homogenized": "fullfield",
     # bonded networks out to OVITO, ParaView, LAMMPS (t22)
     "write_network": "export",
     "read_network": "export",
