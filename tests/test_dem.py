@@ -335,3 +335,59 @@ def test_sigint_is_deferred_to_a_chunk_end(random_net, monkeypatch):
     res = info.value.partial
     assert calls["n"] == 2 and not res.complete
     assert res.per_direction[0]["steps"] == calls["steps"]
+
+
+# ------------------------------------------------- rigidity and convergence (issue 31)
+def _loose(z):
+    """A phi = 0.4 pack bonded to mean coordination ``z`` (3.0: floppy; 4.1: near-floppy, rigid)."""
+    from polypack.neighbors import pairs_within
+
+    pk = pp.pack(np.full(300, 0.5), volume_fraction=0.4, seed=5, progress=False)
+    i, j, d = pairs_within(pk.positions, pk.radii, pk.box, a=1.5)
+    gaps = np.sort(d / (pk.radii[i] + pk.radii[j]) - 1.0)
+    return bonded(pk, epsilon=float(gaps[int(round(z * pk.n / 2)) - 1]), kn=KN, ks=KS, fnb=np.inf, fsb=np.inf)
+
+
+def test_floppy_network_reports_floppy_not_a_number():
+    """Z = 3.0 (below isostatic): the unchecked DEM gives G' = -0.063 or 1.2 with G'' > G'
+    (inertia and damping only); the checked one says floppy, G' = 0, and runs no DEM."""
+    net = _loose(3.0)
+    r = dem.oscillatory_shear(net, directions=[(2, 0)], cycles=2, steps_per_cycle=1000, density=1.0)
+    assert r.status == "floppy" and r.rigid is False and not r.converged
+    assert r.storage_modulus == 0.0 and r.static_storage_modulus == 0.0 and r.per_direction == []
+    assert "6 of 6 strain modes" in r.floppy_reason
+    d = r.to_dict()
+    import json
+
+    json.dumps(d, allow_nan=False)  # no NaN reaches JSON
+    assert d["status"] == "floppy" and d["loss_modulus"] is None and d["inertial_error"] is None
+    # without the check the DEM's number is no modulus: flagged as not converged
+    u = dem.oscillatory_shear(net, directions=[(2, 0)], cycles=2, steps_per_cycle=1000, density=1.0,
+                              check_rigidity=False)
+    assert u.status == "not_converged" and u.rigid is None
+    assert any("<= 0" in p or "G''/G'" in p for p in u.problems)
+    json.dumps(u.to_dict(), allow_nan=False)
+
+
+def test_disconnected_network_is_floppy_in_shear():
+    pk = pp.pack(np.full(200, 0.5), volume_fraction=0.3, seed=2)
+    r = dem.oscillatory_shear(bonded(pk, epsilon=0.05, fnb=np.inf, fsb=np.inf), directions=[(2, 0)], cycles=2,
+                              steps_per_cycle=200, density=1.0)
+    assert r.status == "floppy" and r.storage_modulus == 0.0 and "disconnected" in r.floppy_reason
+
+
+def test_drive_too_fast_is_not_converged(random_net):
+    """Rigid Z = 5.1 pack (static C55 = 7.435): 100 steps per cycle give G' = 10.9 (+47 %,
+    inertial error 5.2) -> not_converged; 1000 give 7.31 (-1.6 %) -> ok. Near-floppy Z = 4.1
+    (static 0.478): 1000 steps give G' = 0.87 (+82 %) with an inertial error of 0.36 from G'
+    alone (0.65 from the static modulus): only the static limit catches it."""
+    fast = dem.oscillatory_shear(random_net, directions=[(2, 0)], cycles=2, steps_per_cycle=100, density=1.0)
+    assert fast.status == "not_converged" and fast.rigid is True
+    assert any("static limit" in p for p in fast.problems) and any("inertial error" in p for p in fast.problems)
+    slow = dem.oscillatory_shear(random_net, directions=[(2, 0)], cycles=2, steps_per_cycle=1000, density=1.0)
+    assert slow.status == "ok" and slow.converged and slow.problems == []
+    assert slow.static_storage_modulus == pytest.approx(dem.static_shear_modulus(random_net, 2, 0), rel=1e-6)
+    near = dem.oscillatory_shear(_loose(4.1), directions=[(2, 0)], cycles=2, steps_per_cycle=1000, density=1.0)
+    assert near.status == "not_converged" and near.rigid is True
+    assert near.storage_modulus > 1.25 * near.static_storage_modulus
+    assert [p for p in near.problems if "static limit" in p]

@@ -228,3 +228,52 @@ def test_shear_stage_dem_errors_name_the_stage():
     with pytest.raises(InvalidInputError, match=r"^analysis.shear: ") as exc:
         run_shear(fcc(cells=2, d=1.0), opts, None)
     assert "\n" not in str(exc.value)
+
+
+# ------------------------------------------------- floppy structures in a study (issue 31)
+def test_study_with_floppy_structures_finishes_with_them_marked(tmp_path):
+    """A phi = 0.3 CRM pack bonded at epsilon = 0.01 has no wrapping cluster: before issue 31
+    the shear stage reported a DEM number (29 Pa for such a network) and the elastic stage
+    refused; now both records say floppy, G = 0, the study finishes and no NaN is written."""
+    data = _study({"shear": dict(SHEAR, epsilon=0.01), "elastic": {"epsilon": 0.01}}, volume_fraction=0.3)
+    out = tmp_path / "run"
+    pp.ensemble.run_study(data, out, progress=False)
+    for k, row in enumerate(_rows(out)):
+        rec = json.loads((out / "realizations" / f"r{k:04d}.json").read_text())
+        sh, el = rec["analysis"]["shear"], rec["analysis"]["elastic"]
+        assert sh["status"] == "floppy" and sh["storage_modulus"] == 0.0 and sh["inertial_error"] is None
+        assert el["status"] == "floppy" and el["shear_modulus"] == 0.0 and "disconnected" in el["floppy_reason"]
+        assert row["shear.floppy"] == "1" and row["shear.converged"] == "0" and row["elastic.floppy"] == "1"
+        assert float(row["shear.storage_modulus"]) == 0.0
+    ens = json.loads((out / "ensemble" / "scalars.json").read_text())
+    assert ens["shear.floppy"]["mean"] == 1.0 and ens["elastic.shear_modulus"]["mean"] == 0.0
+
+
+def test_not_converged_shear_states_so_and_gives_no_modulus():
+    """100 steps per cycle on a rigid pack: G' +47 % over its static limit; the record keeps
+    the measured numbers under measured_* and gives no modulus to average."""
+    from polypack.mechanics.stages import run_shear
+
+    pk = pp.pack(np.full(60, 0.5), volume_fraction=0.6, seed=5)
+    cap = pp.registry.get("analysis", "shear")
+    rec = run_shear(pk, cap.resolve(dict(SHEAR, steps_per_cycle=100, cycles=2)), None)
+    json.dumps(rec, allow_nan=False)
+    assert rec["status"] == "not_converged" and rec["converged"] == 0 and rec["problems"]
+    assert rec["storage_modulus"] is None and rec["storage_modulus_MPa"] is None
+    assert rec["measured_storage_modulus"] > 0 and rec["direction"]["2-0"]["storage_modulus"] is None
+
+
+def test_a_nan_never_reaches_a_record(tmp_path, monkeypatch):
+    """A stage result holding NaN (a NaN inertial_error crashed json.dumps and left r0000.gsd
+    without its record, forever) is written with None instead."""
+    from polypack.ensemble import runner
+    from polypack.mechanics import stages
+
+    real = stages.run_elastic
+    monkeypatch.setattr(stages, "run_elastic", lambda pk, o, s: dict(real(pk, o, s), inertial_error=float("nan"),
+                                                                      nested=[1.0, float("inf")]))
+    out = tmp_path / "run"
+    pp.ensemble.run_study(_study({"elastic": {"epsilon": 0.05}}), out, progress=False)
+    rec = json.loads((out / "realizations" / "r0000.json").read_text())
+    assert rec["analysis"]["elastic"]["inertial_error"] is None and rec["analysis"]["elastic"]["nested"] == [1.0, None]
+    assert runner.finite_json({"a": [float("nan"), np.float64(2.0)]}) == {"a": [None, 2.0]}

@@ -610,6 +610,26 @@ MUTANTS += [
 ]
 
 
+# issue 31: rigidity as an answer (floppy networks, unconverged shear tests, NaN-free records)
+MUTANTS += [
+    Mutant("m31-floppy-never", M + "elastic.py",
+           "    soft = lam < tol * ref\n", "    soft = lam < 0.0 * ref\n",
+           T_EL, "dropped check (round-off moduli of a floppy network reported as numbers)"),
+    Mutant("m31-untouched-rows", M + "elastic.py",
+           "untouched = (np.asarray(h.diagonal()) <= 0.0) & keep",
+           "untouched = (np.asarray(h.diagonal()) < 0.0) & keep",
+           T_EL, "off-by-one (empty rows of H left in the factorization)"),
+    Mutant("m31-static-excess", M + "dem.py",
+           "if static and gmean > (1.0 + STATIC_EXCESS_LIMIT) * static:",
+           "if static and gmean > (2.0 + STATIC_EXCESS_LIMIT) * static:",
+           T_DEM, "wrong bound (an inertia-stiffened G' accepted)"),
+    Mutant("m31-record-nan", "src/polypack/ensemble/runner.py",
+           "        return float(v) if math.isfinite(v) else None\n",
+           "        return float(v)\n",
+           T_ST, "dropped check (NaN written to a record)"),
+]
+
+
 def _kernel_digest(src: Path) -> str:
     h = hashlib.sha1()
     for p in sorted((src / "polypack" / "_kernels").glob("*.py")):

@@ -227,3 +227,51 @@ def atomic_open(path, mode="w", **kw):
             yield fh
             fh.flush()
             os.fsync(fh.fileno())
+
+
+@contextlib.contextmanager
+def atomic_paths(*paths):
+    """Temporary paths for outputs written together (a file and its sidecar, an index and its
+    parts): each is renamed onto its target only once the body has written all of them; on
+    any exception none is, so a pair is written together or not at all."""
+    with contextlib.ExitStack() as stack:
+        tmps = [stack.enter_context(atomic_path(p)) for p in paths]
+        yield tmps
+
+
+def _same_file(a, b) -> bool:
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return os.path.abspath(a) == os.path.abspath(b)
+
+
+#: File kinds by extension, for :func:`check_new_output` (what an existing file is).
+_FILE_KINDS = {
+    ".gsd": "GSD", ".xyz": "XYZ", ".extxyz": "XYZ", ".data": "LAMMPS data", ".lmp": "LAMMPS data",
+    ".vtp": "VTK", ".vtm": "VTK", ".csv": "CSV", ".json": "JSON", ".html": "HTML", ".htm": "HTML",
+    ".png": "PNG", ".svg": "SVG", ".pdf": "PDF", ".txt": "text", ".toml": "TOML",
+}
+
+
+def check_new_output(path, kind, *, inputs=(), force=False, option="-o"):
+    """Check an output path before anything is computed; return it as a Path.
+
+    Refused with one line (:class:`~polypack.errors.InvalidInputError`): ``path`` is one of
+    the command's ``inputs`` (no command writes onto its own input, ``--force`` or not);
+    an existing file whose kind (by extension, :data:`_FILE_KINDS`) differs from the
+    ``kind`` the command writes (e.g. HTML onto a ``.gsd``), unless ``force``. Then the
+    checks of :func:`output_path` (a folder, a read-only file, ...).
+    """
+    shown = str(path)
+    for src in inputs:
+        if src is not None and _same_file(path, src):
+            raise InvalidInputError(f"{option} {shown}: is the input file {src}; choose another output path")
+    if os.path.isfile(path) and not force:
+        ext = Path(path).suffix.lower()
+        have = _FILE_KINDS.get(ext, f"a {ext or 'extension-less'} file")
+        if have != kind:
+            raise InvalidInputError(f"{option} {shown}: an existing {have} file would be replaced by {kind}; "
+                                    "choose another path or pass --force")
+    output_path(path)
+    return Path(path)

@@ -61,6 +61,8 @@ def register(app: typer.Typer) -> None:
         unit, f = ("MPa", 1e-6) if si else ("(stiffness/length)", 1.0)
         typer.echo(f"{file}: N={pk.n}, volume fraction {pk.volume_fraction:.4f}, bonds {nw['n_bonds']}, "
                    f"Z={nw['coordination']:.3f}, rattlers {nw['n_rattlers']}, floppy modes {e['floppy_modes']}")
+        if not e["rigid"]:
+            typer.echo(f"  FLOPPY: G = 0 ({e['floppy_reason']})")
         c = np.asarray(e["stiffness"]) * f
         typer.echo(f"  relaxed stiffness C ({unit}, Voigt 11 22 33 23 13 12, engineering shear):")
         for row in c:

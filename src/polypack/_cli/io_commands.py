@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 from typing import Optional
 
 import typer
@@ -40,9 +41,9 @@ def summarize(path, fmt: Optional[str] = None, max_pairs: int = MAX_PAIRS, frame
     (relative gap ``d_ij/(r_i+r_j) - 1``, minimum image), ``overlapping_pairs``
     (total count), ``overlaps`` (the worst ``max_pairs`` as ``[i, j, gap]``), ``meta``.
     """
-    from .. import io
+    from ..io.bonds import read_maybe_network
 
-    pk, info = io.read_with_info(path, fmt, **({} if frame is None else {"frame": frame}))
+    pk, info, net = read_maybe_network(path, fmt, frame)
     gap, pair = pk.closest_pair()
     ov = pk.overlaps(0.0)
     species = []
@@ -72,7 +73,29 @@ def summarize(path, fmt: Optional[str] = None, max_pairs: int = MAX_PAIRS, frame
         "overlapping_pairs": int(len(ov)),
         "overlaps": [[int(i), int(j), float(g)] for i, j, g in ov[:max_pairs]],
         "meta": _jsonable(pk.meta),
+        **_network_summary(pk, net),
     }
+
+
+def _network_summary(pk, net) -> dict:
+    """``bonds`` (count), ``bond_types``, ``coordination``, ``rattlers`` (fewer than two bonds,
+    recursively), ``bond_fields``, ``particle_fields`` of a network file; {} for a pack."""
+    if net is None:
+        return {}
+    import numpy as np
+
+    m = int(len(net["i"]))
+    out = {"bonds": m, "bond_types": sorted({int(t) for t in np.asarray(net["bond_types"]).tolist()}),
+           "coordination": 2.0 * m / pk.n if pk.n else 0.0, "rattlers": None,
+           "bond_fields": sorted(net["bond_data"]), "particle_fields": sorted(net["particle_data"])}
+    if m:
+        try:
+            from ..mechanics import BondNetwork
+
+            out["rattlers"] = int(BondNetwork.from_pairs(pk, net["i"], net["j"], net["shift"]).rattlers.sum())
+        except Exception:  # noqa: BLE001 - a summary line, not a check: a network it cannot build has no count
+            out["rattlers"] = None
+    return out
 
 
 def _short(value, width=60) -> str:
@@ -112,6 +135,12 @@ def format_summary(s: dict) -> str:
             f"overlaps         {s['overlapping_pairs']} overlapping pair(s): spheres {named}"
             + (f", and {more} more" if more > 0 else "")
         )
+    if "bonds" in s:
+        lines.append(f"bonds            {s['bonds']} (types {', '.join(map(str, s['bond_types'])) or '-'}, "
+                     f"coordination {s['coordination']:.4g}, rattlers "
+                     f"{'-' if s['rattlers'] is None else s['rattlers']})")
+        lines.append(f"bond fields      {', '.join(s['bond_fields']) or '(none)'}")
+        lines.append(f"particle fields  {', '.join(s['particle_fields']) or '(none)'}")
     if s["meta"]:
         lines.append("meta")
         for key, value in s["meta"].items():
@@ -119,6 +148,12 @@ def format_summary(s: dict) -> str:
     else:
         lines.append("meta             (none)")
     return "\n".join(lines)
+
+
+def _kind_of(path):
+    from .._util import _FILE_KINDS
+
+    return _FILE_KINDS.get(Path(path).suffix.lower(), "file")
 
 
 def register(app: typer.Typer) -> None:
@@ -149,20 +184,57 @@ def register(app: typer.Typer) -> None:
         from_fmt: Optional[str] = typer.Option(None, "--from", help="Input format when the extension is not standard."),
         to_fmt: Optional[str] = typer.Option(None, "--to", help="Output format when the extension is not standard."),
         frame: Optional[int] = typer.Option(None, "--frame", help="Frame of a multi-frame GSD/XYZ file (default: last)."),
+        drop_bonds: bool = typer.Option(False, "--drop-bonds", help="Write only the pack of a network file "
+                                        "(its bonds and bond/particle fields are left out)."),
+        drop_fields: bool = typer.Option(False, "--drop-fields", help="Keep the bonds of a network file but "
+                                         "leave out its bond/particle fields (for LAMMPS data, which has none)."),
     ):
-        """Convert a packing between formats (gsd, xyz, lammps, vtp, csv).
+        """Convert a packing or a bonded network between formats (gsd, xyz, lammps, vtp, csv; networks: gsd, lammps, vtm).
 
-        Positions, radii, box, species and provenance are carried over exactly; the output is written atomically, so an existing TARGET is replaced only on success.
+        Positions, radii, box, species and provenance are carried over exactly, and so are the bonds and the bond and particle fields of a network file (GSD, LAMMPS data, VTK .vtm) to a format that holds them; a target that cannot hold them is refused unless --drop-bonds. The output is written atomically, never onto SOURCE, so an existing TARGET is replaced only on success.
         """  # noqa: E501
         from .. import io
-        from .._util import output_path
+        from .._util import check_new_output, output_path
+        from ..errors import InvalidInputError
+        from ..io import bonds as iob
 
-        io.format_for(target, to_fmt)
+        t_ext = Path(target).suffix.lower()
+        t_fmt = "vtm" if (to_fmt or "").lower().lstrip(".") == "vtm" or (not to_fmt and t_ext == ".vtm") else None
+        if t_fmt is None:
+            t_fmt = io.format_for(target, to_fmt)
+        check_new_output(target, _kind_of(target), inputs=(source,), option="TARGET")
         output_path(target)
-        pk, info = io.read_with_info(source, from_fmt, **({} if frame is None else {"frame": frame}))
-        io.write(target, pk, to_fmt)
+        pk, info, net = iob.read_maybe_network(source, from_fmt, frame)
         which = f" from frame {info['frame']} of {info['frames']}" if info.get("frames", 1) > 1 else ""
-        typer.echo(f"wrote {target} ({io.format_for(target, to_fmt)}, {pk.n} spheres{which})")
+        if net is not None and drop_fields:
+            net = dict(net, bond_data={}, particle_data={})
+            if len(net["i"]) == 0:
+                net = None
+        if net is not None and not drop_bonds:
+            fields = sorted(net["bond_data"]) + sorted(net["particle_data"])
+            if t_fmt not in iob.BOND_FORMATS:
+                raise InvalidInputError(
+                    f"TARGET {target}: format {t_fmt!r} cannot hold the {len(net['i'])} bonds"
+                    + (f" and fields ({', '.join(fields)})" if fields else "")
+                    + f" of {source}; use .gsd, .vtm or .data, or pass --drop-bonds")
+            if t_fmt == "lammps" and fields:
+                raise InvalidInputError(
+                    f"TARGET {target}: LAMMPS data holds bonds but not the fields ({', '.join(fields)}) of {source}; "
+                    "use .gsd or .vtm, or pass --drop-fields")
+            if len(net["i"]) == 0:
+                raise InvalidInputError(f"{source}: holds fields ({', '.join(fields)}) but no bonds; the network "
+                                        "writers need bonds: pass --drop-bonds to write the pack only")
+            files = iob.write_network(target, pk, net["i"], net["j"], net["shift"], bond_types=net["bond_types"],
+                                      bond_data=net["bond_data"], particle_data=net["particle_data"],
+                                      network_meta=net["network_meta"], format=t_fmt)
+            typer.echo(f"wrote {', '.join(str(f) for f in files)} ({t_fmt}, {pk.n} spheres, {len(net['i'])} bonds"
+                       + (f", fields {', '.join(fields)}" if fields else "") + f"{which})")
+            return
+        if t_fmt == "vtm":
+            raise InvalidInputError(f"TARGET {target}: .vtm holds bonded networks; {source} has no bonds (use .vtp)")
+        io.write(target, pk, to_fmt)
+        dropped = f", bonds and fields of {source} dropped (--drop-bonds)" if net is not None else ""
+        typer.echo(f"wrote {target} ({io.format_for(target, to_fmt)}, {pk.n} spheres{which}{dropped})")
 
 
 __all__ = ["register", "summarize", "format_summary"]

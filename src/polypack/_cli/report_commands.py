@@ -49,9 +49,14 @@ def register(app: typer.Typer) -> None:
                                                   "touch, for the coordination colours (default: the run's, or 0.01)."),
         field: Optional[List[str]] = typer.Option(None, "--field", help="NAME=FILE: a per-particle colour field "
                                                   "(one number per sphere, .npy or text) of a pack file; repeatable."),
+        force: bool = typer.Option(False, "--force", help="Replace an existing -o file of another kind."),
     ):
         """Write one self-contained HTML report (3D viewer, tables, figures); nothing is fetched when viewing it."""
+        from .._util import check_new_output
         from ..report import report
+
+        if out is not None:
+            check_new_output(out, "HTML", inputs=(source, *(compare or ())), force=force)
 
         path = report(source, out, color=color, theory=theory, compare=tuple(compare or ()), plots_dir=plots,
                       formats=_formats(plot_format) if plots else (), fields=_fields(field), tolerance=tolerance)
@@ -66,9 +71,14 @@ def register(app: typer.Typer) -> None:
                                                   "repeatable."),
         out: Optional[Path] = typer.Option(None, "--out", "-o", help="Write the page here instead of a temporary file."),
         browser: bool = typer.Option(True, "--browser/--no-browser", help="Open the page in the web browser."),
+        force: bool = typer.Option(False, "--force", help="Replace an existing -o file of another kind."),
     ):
         """Open the 3D viewer of one pack in the web browser (the page is written to a temporary file)."""
+        from .._util import check_new_output
         from ..report.build import _read_pack
+
+        if out is not None:
+            check_new_output(out, "HTML", inputs=(file,), force=force)
         from ..report.viewer import view
 
         pk = _read_pack(file)

@@ -70,28 +70,35 @@ def register(app: typer.Typer) -> None:
         except ShearInterrupted as exc:
             res = exc.result
             interrupted = True
-        typer.echo(
-            f"{source}: {pk.n} spheres, {net.n_bonds} bonds (coordination {net.coordination:.2f}), {boundary}, "
-            f"{res.steps_per_cycle} steps/cycle, dt {res.time_step:.3g} (critical {res.critical_time_step:.3g}, "
-            f"mass scale {res.mass_scale:.3g}, inertial error ~{res.inertial_error:.1e})"
-        )
+        typer.echo(f"{source}: {pk.n} spheres, {net.n_bonds} bonds (coordination {net.coordination:.2f}), {boundary}")
+        if res.status == "floppy":
+            typer.echo(f"  floppy: G' = 0 ({res.floppy_reason}); no DEM run")
+        else:
+            typer.echo(
+                f"  {res.steps_per_cycle} steps/cycle, dt {res.time_step:.3g} (critical {res.critical_time_step:.3g}, "
+                f"mass scale {res.mass_scale:.3g}, inertial error ~{res.inertial_error:.1e})"
+                + (f", static G' {res.static_storage_modulus:.6g}" if res.static_storage_modulus is not None else "")
+            )
         for row in res.per_direction:
             typer.echo(
                 f"  normal {row['normal']} shear {row['shear']} ({row['voigt']}): G' = {row['storage_modulus']:.6g}"
                 f"  G'' = {row['loss_modulus']:.4g}  phase {row['phase_angle']:.2e} rad  breaks {row['breakages']}"
                 + ("" if row["complete"] else "  (interrupted)")
             )
-        typer.echo(
-            f"  G' = {res.storage_modulus:.6g} +- {res.storage_modulus_sd:.3g}   G'' = {res.loss_modulus:.4g}"
-            f"   ({res.wall_time:.1f} s, {res.particle_steps_per_second:.3g} particle-steps/s)"
-        )
+        if res.status != "floppy":
+            typer.echo(
+                f"  G' = {res.storage_modulus:.6g} +- {res.storage_modulus_sd:.3g}   G'' = {res.loss_modulus:.4g}"
+                f"   ({res.wall_time:.1f} s, {res.particle_steps_per_second:.3g} particle-steps/s)"
+            )
+        if res.status == "not_converged":
+            typer.echo("  NOT CONVERGED: " + "; ".join(res.problems))
         if interrupted:  # what was measured is printed above; nothing incomplete is written
             raise typer.Exit(130)
-        if json_out is not None and res.per_direction:
+        if json_out is not None and (res.per_direction or res.status == "floppy"):
             out = res.to_dict(series=True)
             out["source"] = str(source)
             with atomic_open(json_out, "w") as fh:
-                json.dump(out, fh, indent=1)
+                json.dump(out, fh, indent=1, allow_nan=False)
             typer.echo(f"  wrote {json_out}")
         if plot is not None and res.per_direction:
             import matplotlib

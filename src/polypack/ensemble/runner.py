@@ -188,6 +188,20 @@ def is_complete(record) -> bool:
     return realization_status(record) in ("target", "jammed")
 
 
+def finite_json(v):
+    """``v`` with every non-finite float (NaN, inf) replaced by None, recursively: JSON has
+    no NaN, and a record that cannot be written would leave its pack without a record and
+    make every rerun fail the same way (issue 31). Stages state *why* a number is missing
+    (``status``: ``"floppy"``, ``"not_converged"``)."""
+    if isinstance(v, dict):
+        return {k: finite_json(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [finite_json(x) for x in v]
+    if isinstance(v, (float, np.floating)):
+        return float(v) if math.isfinite(v) else None
+    return v
+
+
 def _write_realization(out: Path, study: Study, index, packing, record, seconds):
     import polypack as pp
 
@@ -200,7 +214,8 @@ def _write_realization(out: Path, study: Study, index, packing, record, seconds)
         p = gsd.with_suffix(f".{fmt}")
         pp.io.write(p, packing)
         files[fmt] = {"path": p.name}
-    record = dict(record, fingerprint=study.fingerprint, code=code_record(), files=files, seconds=seconds)
+    record = finite_json(dict(record, fingerprint=study.fingerprint, code=code_record(), files=files,
+                              seconds=seconds))
     with atomic_open(rec, "w", encoding="utf-8") as fh:  # written last: marks completion
         json.dump(record, fh, allow_nan=False)
     return record

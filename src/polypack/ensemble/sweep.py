@@ -216,7 +216,11 @@ def _structure_values(rec, gsd, elastic, modulus="elastic"):
     if modulus == "shear":
         if not isinstance(sh, dict) or "direction" not in sh:
             raise InvalidInputError("heterogeneity report: sweep.modulus = \"shear\" needs [analysis.shear] in the study")
-        g3 = np.asarray([d["storage_modulus"] for d in sh["direction"].values()], dtype=np.float64)
+        if sh.get("status") == "floppy":
+            g3 = np.zeros(1)  # G'p = 0: no DEM was run
+        else:  # not converged: None -> NaN, left out of the fit and counted
+            g3 = np.asarray([np.nan if d["storage_modulus"] is None else d["storage_modulus"]
+                             for d in sh["direction"].values()] or [np.nan], dtype=np.float64)
         src = "[analysis.shear] (dynamic G')"
         if c is None:
             c = sh.get("coordination")
@@ -321,12 +325,16 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
     make_folder(rep)
     rows, points = [], []
     sources = set()
+    unconverged = []
     groups = [(Path(f), *set_label(f, parameter, v)) for v, f in sets] + [(Path(f), *set_label(f)) for f in include]
     for folder, label, kind, vkey, v in groups:
         vals, floppy = [], 0
         for rec, gsd in _records(folder):
             a, b, c, g, gsd_sd, src, g_aff = _structure_values(rec, gsd, elastic, modulus)
             sources.add(src)
+            if not math.isfinite(g):  # a dynamic test that did not converge: no modulus
+                unconverged.append(f"{label} r{rec['index']:04d}")
+                continue
             rigid = bool(g > FLOPPY_FLOOR * g_aff) if math.isfinite(g_aff) else bool(g > 0)
             if not rigid:  # a zero modulus: its round-off is not reported as a value
                 g, gsd_sd = 0.0, 0.0
@@ -364,6 +372,9 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
     if dropped:
         fit_note += (f"; {dropped} floppy structure(s) (G'p below {FLOPPY_FLOOR:g} of the affine modulus: "
                      f"G'p = 0) left out of the fit")
+    if unconverged:
+        fit_note += (f"; {len(unconverged)} structure(s) whose shear test did not converge left out: "
+                     + ", ".join(unconverged[:8]))
     files = {}
     key = parameter.split(".")[-1]
     cols = ["set", key, "realizations", "a", "a_se", "b", "C", "C_se", "G_MPa", "G_sd_MPa", "floppy"]

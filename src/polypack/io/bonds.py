@@ -35,18 +35,18 @@ radii, box, species and the bond list exactly, the fields as written (LAMMPS: no
 from __future__ import annotations
 
 import json
+import os
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import numpy as np
 
-from .._util import atomic_open
 from ..errors import InvalidInputError
 from ..packing import Packing
 from . import _gsd, _lammps, _vtp
 from ._common import fail, provenance_json
 
-__all__ = ["BOND_FORMATS", "write_network", "read_network", "minimum_image_shift"]
+__all__ = ["BOND_FORMATS", "write_network", "read_network", "read_maybe_network", "minimum_image_shift"]
 
 #: format name -> extensions
 BOND_FORMATS = {"gsd": (".gsd",), "lammps": (".data", ".lmp"), "vtm": (".vtm",)}
@@ -132,7 +132,7 @@ def _check(packing, i, j, shift, bond_types, bond_data, particle_data):
 
 
 def write_network(path, packing: Packing, i, j, shift=None, *, bond_types=None, bond_data=None, particle_data=None,
-                  network_meta=None, lammps=None, format: str | None = None) -> list[Path]:
+                  network_meta=None, lammps=None, format: str | None = None, force: bool = False) -> list[Path]:
     """Write a pack with bonds (``.gsd``, ``.data``/``.lmp`` or ``.vtm``), atomically.
 
     Parameters
@@ -156,6 +156,11 @@ def write_network(path, packing: Packing, i, j, shift=None, *, bond_types=None, 
         LAMMPS only: ``bond_types`` (number declared), ``density`` (float or (N,)),
         ``comments`` (header comment lines).
     format : {"gsd", "lammps", "vtm"}, optional
+    force : bool, default False
+        ``.vtm``: replace an existing ``<stem>_particles.vtp`` or ``<stem>_bonds.vtp`` that
+        the existing index ``path`` does not name (by default such an unrelated file is
+        never replaced: InvalidInputError). The index and its parts are renamed into
+        place together, once all three are written.
 
     Returns
     -------
@@ -178,6 +183,7 @@ def write_network(path, packing: Packing, i, j, shift=None, *, bond_types=None, 
     if fmt == "lammps":
         _write_lammps(path, packing, i, j, shift, btype, meta_json, lammps or {})
         return [path]
+    _check_parts(path, force)
     return _write_vtm(path, packing, i, j, shift, btype, bdata, pdata, meta_json)
 
 
@@ -312,10 +318,41 @@ def _parts(path: Path):
     return path.with_name(path.stem + "_particles.vtp"), path.with_name(path.stem + "_bonds.vtp")
 
 
+def _own_parts(path: Path):
+    """Part files the existing index ``path`` names (empty if there is none or it is unreadable)."""
+    try:
+        root = ET.fromstring(path.read_text(encoding="utf-8"))
+    except (OSError, ET.ParseError, UnicodeDecodeError):
+        return set()
+    return {d.get("file", "") for d in root.iter("DataSet")}
+
+
+def _check_parts(path: Path, force: bool):
+    """An existing ``<stem>_particles.vtp`` / ``<stem>_bonds.vtp`` is replaced only when the
+    existing index ``path`` names it (rewriting the same network) or ``force``."""
+    if force:
+        return
+    own = _own_parts(path) if path.is_file() else set()
+    for part in _parts(path):
+        if part.exists() and part.name not in own:
+            raise InvalidInputError(
+                f"{part}: exists and is not part of {path.name}; writing {path.name} would replace it "
+                "(choose another name, or force=True)")
+
+
 def _write_vtm(path, packing, i, j, shift, btype, bdata, pdata, meta_json):
+    from .._util import atomic_paths
+
     ppath, bpath = _parts(path)
+    with atomic_paths(ppath, bpath, path) as (tp, tb, ti):
+        # the index and both parts are renamed into place together, only once all are written
+        _write_vtm_parts(packing, i, j, shift, btype, bdata, pdata, meta_json, ppath, bpath, tp, tb, ti)
+    return [path, ppath, bpath]
+
+
+def _write_vtm_parts(packing, i, j, shift, btype, bdata, pdata, meta_json, ppath, bpath, tp, tb, ti):
     prov = provenance_json(packing)
-    _vtp.write_arrays(ppath, packing, point_data=pdata, provenance=prov)
+    _vtp.write_arrays(tp, packing, point_data=pdata, provenance=prov)
     m = i.size
     p3 = _vtp.points3(packing)
     box3 = np.append(packing.box, np.zeros(3 - packing.dim))
@@ -342,8 +379,10 @@ def _write_vtm(path, packing, i, j, shift, btype, bdata, pdata, meta_json):
     )
     fields = _vtp.field_data(packing, prov).replace(
         "    </FieldData>\n", _vtp.string_array("network", meta_json) + "    </FieldData>\n")
-    with atomic_open(bpath, "w", encoding="utf-8", newline="\n") as fh:
+    with open(tb, "w", encoding="utf-8", newline="\n") as fh:
         fh.write(_vtp.document(piece, fields))
+        fh.flush()
+        os.fsync(fh.fileno())
     index = (
         '<?xml version="1.0"?>\n'
         '<VTKFile type="vtkMultiBlockDataSet" version="1.0" byte_order="LittleEndian" header_type="UInt64">\n'
@@ -352,9 +391,10 @@ def _write_vtm(path, packing, i, j, shift, btype, bdata, pdata, meta_json):
         f'    <DataSet index="1" name="bonds" file="{bpath.name}"/>\n'
         "  </vtkMultiBlockDataSet>\n</VTKFile>\n"
     )
-    with atomic_open(path, "w", encoding="utf-8", newline="\n") as fh:
+    with open(ti, "w", encoding="utf-8", newline="\n") as fh:
         fh.write(index)
-    return [path, ppath, bpath]
+        fh.flush()
+        os.fsync(fh.fileno())
 
 
 def _read_vtm(path):
@@ -407,6 +447,31 @@ def _cell_values(el, rows, path):
     if vals.size != rows * comps:
         raise fail(path, f"array {el.get('Name')!r} has {vals.size} values, expected {rows * comps}")
     return vals.reshape(rows, comps) if comps > 1 else vals
+
+
+def read_maybe_network(path, format: str | None = None, frame=None):
+    """``(packing, info, bonds)`` of any pack file; ``bonds`` as :func:`read_network`, or None
+    when the file holds no bonds and no bond or particle fields (or is of a format without
+    bonds: ``.xyz``, ``.vtp``, ``.csv``). ``format`` is a pack format name (``gsd``,
+    ``lammps``, ...) or ``"vtm"``."""
+    from . import read_with_info
+
+    ext = Path(path).suffix.lower()
+    name = (format or "").lower().lstrip(".")
+    if name == "vtm" or (not name and ext == ".vtm"):
+        pk, b = _read_vtm(Path(path))
+        return pk, b["info"], b
+    if name in ("", "gsd", "lammps") and (name or ext in (".gsd", ".data", ".lmp")):
+        kind = name or ("gsd" if ext == ".gsd" else "lammps")
+        if kind == "gsd":
+            pk, b = _read_gsd(Path(path), -1 if frame is None else frame)
+        else:
+            pk, b = _read_lammps(Path(path))
+        if len(b["i"]) or b["bond_data"] or b["particle_data"]:
+            return pk, b["info"], b
+        return pk, b["info"], None
+    pk, info = read_with_info(path, format, **({} if frame is None else {"frame": frame}))
+    return pk, info, None
 
 
 def read_network(path, format: str | None = None) -> tuple[Packing, dict]:

@@ -56,6 +56,8 @@ ELASTIC_SCALARS = (
     "n_rattlers",             # particles with < 2 bonds, removed recursively
     "n_bonds",
     "floppy_modes",
+    "floppy",                 # 1 when the network is floppy (G = 0 exactly; ElasticTensor.rigid), else 0
+    "floppy_strains",         # strain modes of zero modulus (0 rigid ... 6)
 )
 
 register(
@@ -124,6 +126,9 @@ SHEAR_SCALARS = (
     "storage_modulus_MPa", "loss_modulus_MPa",
     "breakages", "n_bonds", "coordination",
     "time_step", "mass_scale", "steps_per_cycle", "inertial_error",
+    "floppy",                                   # 1: the network is floppy (G' = 0, no DEM run), else 0
+    "converged",                                # 1: status "ok"; 0: floppy or not converged (moduli None)
+    "static_storage_modulus",                   # the exact static limit of G' (elastic_tensor)
 )
 
 register(

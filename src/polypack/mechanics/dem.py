@@ -82,6 +82,22 @@ DEFAULTS = {
 }
 
 BOUNDARIES = ("lees-edwards", "plates")
+
+#: Largest ``inertial_error`` of a converged (quasi-static) measurement. The estimate
+#: ``(ω H / c_s)² / 3`` is the relative bias of a force measured through the whole box;
+#: the seed's protocol on a converged N = 8000 network gives 0.13 (docs/dem.md), a drive the
+#: sample cannot follow gives 4-10 and more (with ``G″ > G′``).
+INERTIAL_ERROR_LIMIT = 1.0
+#: Largest loss tangent ``G″ / G′`` of an elastic (solid) response: beyond it the stress
+#: follows the strain rate more than the strain (phase above 45°), a viscous or
+#: unconverged response, not a storage modulus.
+LOSS_TANGENT_LIMIT = 1.0
+#: Largest excess of the measured ``G′`` over its static limit (the exact tensor's
+#: C44/C55/C66), relative: inertia stiffens the response of a sample driven too fast
+#: (a near-floppy Z = 4.1 network at 1000 steps per cycle: +82 %); converged runs are
+#: within a few % (Lees-Edwards ~1 %, the plates' boundary layer up to +5 % at N = 300,
+#: docs/dem.md); bond breakage only lowers ``G′``.
+STATIC_EXCESS_LIMIT = 0.25
 _NO_LAYERS = np.zeros(0)
 _NO_LAYER_SAMPLES = np.zeros((1, 1))
 
@@ -624,6 +640,24 @@ class ShearResult:
         The :func:`relax` record when the structure was relaxed first.
     complete : bool
         False when the run was interrupted.
+    status : str
+        ``"ok"``; ``"floppy"`` (the static tensor of the network has a zero shear modulus:
+        no DEM is run, ``storage_modulus`` is 0 and the loss terms are None);
+        ``"not_converged"`` (the response is not a converged elastic one: see
+        ``problems``); ``"interrupted"``.
+    problems : list of str
+        Why the status is not ``"ok"``: a ``G′ <= 0``, a loss tangent ``G″/G′`` above
+        :data:`LOSS_TANGENT_LIMIT`, an ``inertial_error`` above
+        :data:`INERTIAL_ERROR_LIMIT`, a mean ``G′`` above its static limit by more than
+        :data:`STATIC_EXCESS_LIMIT`.
+    rigid : bool or None
+        Whether the static tensor of the network (:func:`polypack.mechanics.elastic_tensor`
+        of the stress-free network with the same bonds) is rigid; None when not checked.
+    static_storage_modulus : float or None
+        The static limit of ``storage_modulus``: the mean over the directions run of the
+        exact tensor's C44/C55/C66 (None when not checked). ``inertial_error`` uses the
+        smaller of it and the measured ``G′`` (a near-floppy network's DEM overestimates
+        ``G′`` when the drive is too fast for it).
     timings : dict
         Where the time went (wall seconds, ``time.perf_counter``; ``*_cpu`` entries
         ``time.process_time``): ``critical_step`` (the highest-mode estimate),
@@ -657,21 +691,35 @@ class ShearResult:
     complete: bool = True
     parameters: dict = field(default_factory=dict)
     timings: dict = field(default_factory=dict)
+    status: str = "ok"
+    problems: list = field(default_factory=list)
+    rigid: bool | None = None
+    static_storage_modulus: float | None = None
+    floppy_reason: str | None = None
 
     @property
-    def complex_modulus(self) -> float:
-        return float(np.mean([r["complex_modulus"] for r in self.per_direction])) if self.per_direction else math.nan
+    def converged(self) -> bool:
+        """True when ``status == "ok"``: a complete, rigid, elastic and quasi-static measurement."""
+        return self.status == "ok"
 
     @property
-    def phase_angle(self) -> float:
-        return float(np.mean([r["phase_angle"] for r in self.per_direction])) if self.per_direction else math.nan
+    def complex_modulus(self):
+        if self.status == "floppy":
+            return 0.0
+        return float(np.mean([r["complex_modulus"] for r in self.per_direction])) if self.per_direction else None
+
+    @property
+    def phase_angle(self):
+        return float(np.mean([r["phase_angle"] for r in self.per_direction])) if self.per_direction else None
 
     def to_dict(self, series: bool = False) -> dict:
         keys = ("storage_modulus", "loss_modulus", "storage_modulus_sd", "loss_modulus_sd", "boundary",
                 "frequency", "amplitude", "cycles", "ramp_cycles", "discard_cycles", "time_step",
                 "critical_time_step", "mass_scale", "density", "steps_per_cycle", "inertial_error", "wall_time",
-                "particle_steps_per_second", "complete", "parameters", "timings")
-        out = {k: getattr(self, k) for k in keys}
+                "particle_steps_per_second", "complete", "parameters", "timings", "status", "problems", "rigid",
+                "static_storage_modulus", "floppy_reason")
+        out = {k: _finite_or_none(getattr(self, k)) for k in keys}
+        out["converged"] = self.converged
         out["complex_modulus"] = self.complex_modulus
         out["phase_angle"] = self.phase_angle
         out["per_direction"] = self.per_direction
@@ -703,6 +751,61 @@ class ShearResult:
         ax.legend(h1 + h2, l1 + l2, loc="upper left", fontsize=8)
         ax.set_title(f"{self.boundary}: G′ = {row['storage_modulus']:.4g}, δ = {row['phase_angle']:.2e} rad")
         return ax
+
+
+def _finite_or_none(v):
+    """NaN and infinities never reach JSON: None instead."""
+    if isinstance(v, (float, np.floating)):
+        return float(v) if math.isfinite(v) else None
+    return v
+
+
+def _rigidity(network):
+    """The exact static tensor of the network's bonds (stress-free), or None when it cannot be had.
+
+    A zero-gap (prestressed) network is linearised about its current geometry with the same
+    bonds and stiffnesses: rigidity is a property of the bond topology and geometry.
+    """
+    from ..errors import InfeasibleError
+    from .elastic import elastic_tensor
+    from .network import BondNetwork
+
+    if not isinstance(network, BondNetwork):
+        return None
+    net = network
+    if network.reference != "stress-free":
+        net = BondNetwork.from_pairs(network.packing, network.i, network.j, network.shift,
+                                     normal_stiffness=network.normal_stiffness,
+                                     shear_stiffness=network.shear_stiffness, reference="stress-free")
+    try:
+        return elastic_tensor(net)
+    except InfeasibleError:  # an iterative relaxation that did not converge: rigidity unknown
+        return None
+
+
+def _assess(per_dir, gmean, static, inertial, complete):
+    """``(status, problems)`` of a measured shear result (see :class:`ShearResult`)."""
+    if not complete:
+        return "interrupted", ["interrupted"]
+    problems = []
+    for r in per_dir:
+        gp, gpp = r["storage_modulus"], r["loss_modulus"]
+        tag = f"direction ({r['normal']}, {r['shear']})"
+        if not gp > 0:
+            problems.append(f"{tag}: G' = {gp:.4g} <= 0 (not an elastic response)")
+        elif gpp > LOSS_TANGENT_LIMIT * gp:
+            problems.append(f"{tag}: G''/G' = {gpp / gp:.3g} > {LOSS_TANGENT_LIMIT:g} (phase "
+                            f"{math.degrees(r['phase_angle']):.0f} deg: not an elastic response)")
+    if static and gmean > (1.0 + STATIC_EXCESS_LIMIT) * static:
+        problems.append(f"G' = {gmean:.4g} exceeds its static limit {static:.4g} by {100 * (gmean / static - 1):.0f} % "
+                        f"(> {100 * STATIC_EXCESS_LIMIT:.0f} %: inertia); raise steps_per_cycle or lower the frequency")
+    if inertial is None or not math.isfinite(inertial):
+        problems.append("inertial error undefined (G' <= 0)")
+    elif inertial > INERTIAL_ERROR_LIMIT:
+        problems.append(f"inertial error {inertial:.3g} > {INERTIAL_ERROR_LIMIT:g}"
+                        + (f" (static modulus {static:.4g})" if static is not None else "")
+                        + ": the sample cannot follow the drive; raise steps_per_cycle or lower the frequency")
+    return ("not_converged" if problems else "ok"), problems
 
 
 class _Trajectory:
@@ -812,7 +915,8 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
                       mass_scale: float | None = None, damping: float = DEFAULTS["damping"],
                       friction: float = DEFAULTS["friction"], density: float = DEFAULTS["density"],
                       relax_first: bool | None = None, layers: int = 3, measurement_layers: int = 5,
-                      trajectory=None, trajectory_every: int | None = None, progress=None) -> ShearResult:
+                      trajectory=None, trajectory_every: int | None = None, progress=None,
+                      check_rigidity: bool = True) -> ShearResult:
     """Strain-controlled oscillatory shear of a bonded network by DEM (§2.4 of 003_873b69fc71c74cf6.txt).
 
     The strain ``γ(t) = A_k sin(2π f t)`` has an amplitude ramped linearly over the first
@@ -876,10 +980,21 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
         cycle), all directions in one file, atomically at the end.
     progress : bool, optional
         Progress bar (default: when stderr is a terminal).
+    check_rigidity : bool, default True
+        First compute the exact static tensor of the network's bonds
+        (:func:`polypack.mechanics.elastic_tensor`, seconds against the DEM's minutes): a
+        floppy network (no wrapping cluster, or a zero shear modulus) is returned at once
+        with ``status="floppy"`` and ``storage_modulus = 0`` (the DEM of a floppy network
+        measures only inertia and damping: any number, even negative); its static moduli
+        also bound the inertial error (``static_storage_modulus``).
 
     Returns
     -------
     ShearResult
+        With ``status`` ``"ok"``, ``"floppy"`` or ``"not_converged"`` (a ``G′ <= 0``,
+        ``G″ > G′``, ``inertial_error`` above :data:`INERTIAL_ERROR_LIMIT` or ``G′`` above
+        its static limit by more than :data:`STATIC_EXCESS_LIMIT`; the reasons in
+        ``problems``).
 
     Raises
     ------
@@ -939,10 +1054,37 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
                 f"of the bonds beyond their strength (e.g. bond {c}: {net.ks[c] * ut[c]:.3g} N shear against "
                 f"{net.fsb[c]:.3g} N); lower the amplitude")
 
+    # rigidity: the exact static tensor of the same bonds
+    static = et = None
+    if check_rigidity:
+        t_rig = time.perf_counter()
+        et = _rigidity(network)
+        t_rig = time.perf_counter() - t_rig
+    if et is not None:
+        voigt = [_VOIGT_INDEX[frozenset((a, g))] for (g, a) in dirs]
+        static = float(np.mean([et.stiffness[k, k] for k in voigt]))
+        if not et.rigid or not static > 0:
+            reason = et.floppy_reason or "the static shear moduli of the directions run are zero"
+            return ShearResult(
+                storage_modulus=0.0, loss_modulus=None, storage_modulus_sd=0.0, loss_modulus_sd=None,
+                per_direction=[], series=[], boundary=boundary, frequency=frequency, amplitude=amplitude,
+                cycles=cycles, ramp_cycles=ramp, discard_cycles=int(discard_cycles),
+                time_step=1.0 / (frequency * steps_per_cycle), critical_time_step=None, mass_scale=None,
+                density=density, steps_per_cycle=steps_per_cycle, inertial_error=None,
+                wall_time=time.perf_counter() - t_start, particle_steps_per_second=None, complete=True,
+                timings={"rigidity": t_rig}, status="floppy", problems=[f"floppy: {reason}"], rigid=False,
+                static_storage_modulus=0.0, floppy_reason=reason,
+                parameters={"damping": damping, "friction": friction, "safety": safety, "layers": layers,
+                            "trajectory": None, "trajectory_frames": 0, "samples_per_cycle": samples_per_cycle,
+                            "seed": seed, "n_bonds": int(net.i.shape[0]), "n_particles": int(net.pos.shape[0]),
+                            "directions": [list(d) for d in dirs]})
+
     # time step and mass scaling
     t_crit0 = time.perf_counter()
     omega_max1 = _omega_max(net, density)  # at the physical density
     timings = {"critical_step": time.perf_counter() - t_crit0, "relaxation": 0.0, "relaxation_cpu": 0.0}
+    if check_rigidity:
+        timings["rigidity"] = t_rig
     dt_crit1 = 2.0 / omega_max1
     dt = 1.0 / (frequency * steps_per_cycle)
     if mass_scale is None:
@@ -1094,11 +1236,14 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
     gmean = float(np.mean(gp)) if gp.size else math.nan
     rho_bulk = float(np.sum(_masses(net.radii, rho)[0]) / volume)
     if gp.size and gmean > 0:
-        c_s = math.sqrt(gmean / rho_bulk)
+        # the shear-wave speed of the sample: from its static modulus when known (a DEM
+        # that cannot follow the drive overestimates G' and so would hide its own error)
+        c_s = math.sqrt((min(gmean, static) if static else gmean) / rho_bulk)
         h = float(np.max(net.box))
         inertial = (omega * h / c_s) ** 2 / 3.0
     else:
         inertial = math.nan
+    status, problems = _assess(per_dir, gmean, static, inertial, not interrupted)
     res = ShearResult(
         storage_modulus=gmean, loss_modulus=float(np.mean(gpp)) if gpp.size else math.nan,
         storage_modulus_sd=sd(gp), loss_modulus_sd=sd(gpp), per_direction=per_dir, series=series,
@@ -1106,7 +1251,8 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
         discard_cycles=int(discard_cycles), time_step=dt, critical_time_step=dt_crit, mass_scale=mass_scale,
         density=rho, steps_per_cycle=steps_per_cycle, inertial_error=inertial, wall_time=wall,
         particle_steps_per_second=n_part / wall if wall > 0 else math.nan, relaxation=relax_rec,
-        complete=not interrupted,
+        complete=not interrupted, status=status, problems=problems,
+        rigid=None if et is None else True, static_storage_modulus=static,
         timings={**timings, "directions": float(sum(r["seconds"] for r in per_dir))},
         parameters={"damping": damping, "friction": friction, "safety": safety, "layers": layers,
                     "trajectory": str(trajectory) if trajectory is not None and not interrupted else None,

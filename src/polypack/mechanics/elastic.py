@@ -74,6 +74,14 @@ _AMG_MIN = 24000
 _RESIDUAL_LIMIT = 1e-6
 # Coarsest AMG level: at most this many particle blocks (solved by a pseudo-inverse).
 _AMG_MAX_COARSE = 300
+#: A strain mode of the relaxed tensor whose modulus (eigenvalue of ``C``) is below this
+#: fraction of the largest eigenvalue of the affine tensor is floppy: it costs no energy
+#: beyond the numerical floor. The floor: the moduli are bond energies, second order in the
+#: relaxation error, so a relaxation accepted at relative residual 1e-6 (_RESIDUAL_LIMIT)
+#: leaves at most ~1e-12 of the affine scale in a floppy mode (round-off: ~1e-20 to
+#: 1e-30); the softest rigid networks met (near-isostatic VEM structures, Z = 3.7) have
+#: C / C_aff ~ 1e-4. Both are 4 decades away from the threshold.
+FLOPPY_TOLERANCE = 1e-8
 
 
 def voigt_average(c):
@@ -141,6 +149,18 @@ class ElasticTensor:
         ``"superlu"`` (SciPy, where pypardiso is not installed); None for iterative solvers.
     units : str
         ``"Pa"`` when built with ``radius=`` or SI input, else a description.
+    rigid : bool
+        True when a bonded cluster wraps the box and no strain mode is floppy.
+    floppy_strains : int
+        Number of strain modes (eigenvectors of the 6x6 relaxed tensor) whose modulus is
+        below :data:`FLOPPY_TOLERANCE` times the largest affine eigenvalue (6 when no
+        cluster wraps the box). Their moduli are set to exactly 0 in ``stiffness`` (the
+        computed values are round-off), so a floppy network has ``G = 0``, never a
+        round-off or negative number.
+    status : str
+        ``"rigid"`` or ``"floppy"``.
+    floppy_reason : str or None
+        Why the network is floppy (no wrapping cluster, or the floppy strain modes).
     """
 
     def __init__(self, **kw):
@@ -179,8 +199,14 @@ class ElasticTensor:
 
     @property
     def relaxation_ratio(self) -> float:
-        """``G / G_aff``: how much non-affine relaxation softens the shear modulus."""
-        return self.shear_modulus / self.affine_shear_modulus
+        """``G / G_aff``: how much non-affine relaxation softens the shear modulus (0 when floppy)."""
+        aff = self.affine_shear_modulus
+        return self.shear_modulus / aff if aff > 0 else 0.0
+
+    @property
+    def status(self) -> str:
+        """``"rigid"`` or ``"floppy"``."""
+        return "rigid" if self.rigid else "floppy"
 
     @property
     def reduced_stiffness(self) -> np.ndarray:
@@ -208,6 +234,11 @@ class ElasticTensor:
             "reduced_stiffness": self.reduced_stiffness.tolist(),
             "rotations": self.rotations,
             "floppy_modes": self.floppy_modes,
+            "rigid": self.rigid,
+            "status": self.status,
+            "floppy_strains": self.floppy_strains,
+            "floppy_reason": self.floppy_reason,
+            "floppy_tolerance": FLOPPY_TOLERANCE,
             "n_particles": self.n_particles,
             "n_active": self.n_active,
             "n_bonds": self.n_bonds,
@@ -227,6 +258,8 @@ class ElasticTensor:
         return out
 
     def __repr__(self) -> str:
+        if not self.rigid:
+            return f"ElasticTensor(floppy: {self.floppy_reason}, G={self.shear_modulus:.4g}, units={self.units!r})"
         return (f"ElasticTensor(G={self.shear_modulus:.4g}, K={self.bulk_modulus:.4g}, "
                 f"G/G_aff={self.relaxation_ratio:.3f}, units={self.units!r})")
 
@@ -557,9 +590,15 @@ def _local_spin_modes(n, nd, keep, bi, bj, arm_i, arm_j, ell):
     vec /= np.linalg.norm(vec, axis=1, keepdims=True)
     pos = np.full(n * nd, -1, np.int64)
     pos[keep] = np.arange(int(keep.sum()))
-    rows = pos[(p[:, None] * nd + np.arange(nd)[None, :]).ravel()]
-    cols = np.repeat(np.arange(p.size), nd)
-    return sp.csc_matrix((vec.ravel(), (rows, cols)), shape=(int(keep.sum()), p.size))
+    rows = pos[(p[:, None] * nd + np.arange(nd)[None, :])]
+    # a spin on unknowns left out of the solve (untouched by any bond) is not a column here
+    inside = np.all((rows >= 0) | (vec == 0.0), axis=1)
+    rows, vec = rows[inside], vec[inside]
+    if rows.shape[0] == 0:
+        return None
+    nz = vec != 0.0
+    cols = np.repeat(np.arange(rows.shape[0]), nd).reshape(rows.shape)
+    return sp.csc_matrix((vec[nz], (rows[nz], cols[nz])), shape=(int(keep.sum()), rows.shape[0]))
 
 
 def _block_jacobi(h, nd):
@@ -913,11 +952,21 @@ def elastic_tensor(network, rotations=True, *, radius=None, solver="auto", tol=1
     # relaxing part: backbone bonds of clusters that wrap the box
     label, spans = network.components(backbone=True)
     wrapping = spans.any(axis=1)
+    kbar = float(kn_all.mean())
+    common = dict(rotations=bool(rotations), units=units, length_scale=2.0 * float(rad.mean()) * scale,
+                  stiffness_scale=kbar, n_particles=n_all, n_bonds=network.n_bonds,
+                  coordination=network.coordination, n_rattlers=int(network.rattlers.sum()))
     if not wrapping.any():
-        raise InfeasibleError(
-            f"the network is disconnected: none of its {spans.shape[0]} bonded cluster(s) wraps the periodic box "
-            f"(Z = {network.coordination:.3g}); it carries no stress"
-        )
+        # no bonded cluster percolates: nothing carries stress, every strain mode is floppy
+        return ElasticTensor(
+            stiffness=np.zeros((6, 6)), affine_stiffness=c_aff / scale,
+            nonaffine_displacements=np.full((6, n_all, 3), np.nan),
+            nonaffine_rotations=np.full((6, n_all, 3), np.nan) if rotations else None,
+            floppy_modes=None, n_active=0, n_active_bonds=0, n_clusters=0, solver=None, factorization=None,
+            iterations=None, multigrid_levels=None, residual=0.0, asymmetry=0.0, rigid=False, floppy_strains=6,
+            floppy_reason=(f"disconnected: none of its {spans.shape[0]} bonded cluster(s) wraps the periodic box "
+                           f"(Z = {network.coordination:.3g}); it carries no stress"),
+            seconds=time.perf_counter() - t0, **common)
     active = (label >= 0) & wrapping[np.maximum(label, 0)]
     bond_on = active[network.i] & active[network.j]
     idx = np.full(n_all, -1, np.int64)
@@ -938,6 +987,10 @@ def elastic_tensor(network, rotations=True, *, radius=None, solver="auto", tol=1
     pinned = (first[:, None] * nd + np.arange(3)[None, :]).ravel()
     keep = np.ones(n * nd, bool)
     keep[pinned] = False
+    # unknowns that no bond touches (e.g. the spin of a particle about the straight line of
+    # its bonds) have no stiffness and no load: floppy, left out of the solve (x = 0)
+    untouched = (np.asarray(h.diagonal()) <= 0.0) & keep
+    keep &= ~untouched
     rhs = -xi
     rhs[~keep] = 0.0
     method = solver
@@ -966,6 +1019,8 @@ def elastic_tensor(network, rotations=True, *, radius=None, solver="auto", tol=1
         x_r, floppy, open_res, res, basis, factorization, cg_iterations = _solve_direct(
             hr, rhs[keep], ref, tol=min(tol, 1e-12), local_modes=local, energy=lambda y: relaxed_energy(y, keep))
         iterations = cg_iterations or None
+        if floppy is not None:
+            floppy += int(untouched.sum())
     else:
         import scipy.sparse as sp
 
@@ -1007,6 +1062,7 @@ def elastic_tensor(network, rotations=True, *, radius=None, solver="auto", tol=1
     asym = float(np.abs(xtx - xtx.T).max() / max(np.abs(caff_on + xtx).max(), 1e-300))
     c_rel = knl.relaxed_gram(*bonds, x.reshape(n, nd, 6), strains) / volume
     c_rel = 0.5 * (c_rel + c_rel.T)
+    c_rel, n_soft = _zero_floppy_strains(c_rel, c_aff)
 
     # nonaffine fields: zero mean translation per cluster and, when floppy modes exist,
     # no component along them (the minimum-norm field, independent of labels and pinning)
@@ -1028,24 +1084,21 @@ def elastic_tensor(network, rotations=True, *, radius=None, solver="auto", tol=1
     if rotations:
         rot = np.full((6, n_all, 3), np.nan)
         rot[:, active] = q[:, :, 3:] / ell
-    kbar = float(kn_all.mean())
     return ElasticTensor(
         stiffness=c_rel / scale,
         affine_stiffness=c_aff / scale,
         nonaffine_displacements=disp,
         nonaffine_rotations=rot,
         floppy_modes=floppy,
-        rotations=bool(rotations),
-        units=units,
-        length_scale=2.0 * float(rad.mean()) * scale,
-        stiffness_scale=kbar,
-        n_particles=n_all,
         n_active=n,
-        n_bonds=network.n_bonds,
         n_active_bonds=int(bond_on.sum()),
         n_clusters=int(clusters.size),
-        coordination=network.coordination,
-        n_rattlers=int(network.rattlers.sum()),
+        rigid=n_soft == 0,
+        floppy_strains=n_soft,
+        floppy_reason=None if n_soft == 0 else (
+            f"{n_soft} of 6 strain modes cost no energy (modulus below {FLOPPY_TOLERANCE:g} of the affine one; "
+            f"Z = {network.coordination:.3g}, {floppy if floppy is not None else 'uncounted'} floppy modes)"),
+        **common,
         solver=method,
         factorization=factorization,
         iterations=iterations,
@@ -1054,6 +1107,28 @@ def elastic_tensor(network, rotations=True, *, radius=None, solver="auto", tol=1
         asymmetry=asym,
         seconds=time.perf_counter() - t0,
     )
+
+
+def _zero_floppy_strains(c, c_aff, tol=None):
+    """``c`` with its floppy strain modes set to exactly zero; ``(c, count)``.
+
+    The eigenvalues of the symmetric 6x6 ``c`` below ``tol`` (default
+    :data:`FLOPPY_TOLERANCE`) times the largest eigenvalue of the affine tensor ``c_aff``
+    are round-off of a zero-energy strain mode (see :data:`FLOPPY_TOLERANCE`); they are
+    replaced by 0 in ``c = V diag(lambda) V^T``. A rigid ``c`` is returned unchanged.
+    """
+    tol = FLOPPY_TOLERANCE if tol is None else tol
+    ref = float(np.linalg.eigvalsh(0.5 * (c_aff + c_aff.T))[-1])
+    lam, vec = np.linalg.eigh(c)
+    soft = lam < tol * ref
+    count = int(soft.sum())
+    if count == 0:
+        return c, 0
+    lam = np.where(soft, 0.0, lam)
+    out = (vec * lam) @ vec.T
+    out = 0.5 * (out + out.T)
+    out[np.abs(out) < 1e-300] = 0.0
+    return out, count
 
 
 def _affine(network):

@@ -110,6 +110,7 @@ def run_elastic(packing, opts, seed):
            "normal_stiffness": kn, "shear_stiffness": ks,
            "radius_m": radius if radius > 0 else None}
     out.update(et.to_dict())
+    out["floppy"] = int(not et.rigid)  # summary flag: its mean is the fraction of floppy structures
     return out
 
 
@@ -160,7 +161,20 @@ def run_shear(packing, opts, seed):
                                                                           "phase_angle", "breakages")}
                         for r in res.per_direction}
     out["breakages"] = int(sum(r["breakages"] for r in res.per_direction))
+    # summary flags (means over realizations: the fraction of floppy / converged structures)
+    out["floppy"] = int(res.status == "floppy")
+    out["converged"] = int(res.converged)
+    if res.status == "not_converged":
+        # a response that is not a converged elastic one is no modulus: the numbers stay in
+        # the record under "measured_*", the moduli are None (never averaged in)
+        for k in ("storage_modulus", "loss_modulus", "storage_modulus_sd", "loss_modulus_sd", "complex_modulus"):
+            out[f"measured_{k}"] = out.get(k)
+            out[k] = None
+        for row in out["direction"].values():
+            row["measured_storage_modulus"], row["storage_modulus"] = row["storage_modulus"], None
+            row["measured_loss_modulus"], row["loss_modulus"] = row["loss_modulus"], None
     if radius:
-        out["storage_modulus_MPa"] = res.storage_modulus * 1e-6
-        out["loss_modulus_MPa"] = res.loss_modulus * 1e-6
+        sm, lm = out["storage_modulus"], out["loss_modulus"]
+        out["storage_modulus_MPa"] = sm * 1e-6 if sm is not None else None
+        out["loss_modulus_MPa"] = lm * 1e-6 if lm is not None else None
     return out
