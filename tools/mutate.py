@@ -516,6 +516,35 @@ MUTANTS += [
            ("tests/test_brownian_lubrication.py",), "dropped factor (chain rule of the taper)"),
 ]
 
+# drop-and-roll 3D deposition, the all-sphere cell grid, the surface rule's overhang fallback, the
+# small-fraction profile (issue 35)
+T_ROLL = ("tests/test_deposit_roll.py",)
+MUTANTS += [
+    Mutant("k-roll-pair-force-sign", K + "roll3d.py",
+           "    fb = (u * w[2] / rho - ee) / d\n", "    fb = (u * w[2] / rho + ee) / d\n",
+           T_ROLL, "wrong sign (contact force on the second sphere of a pair)"),
+    Mutant("k-roll-query-box", K + "roll3d.py",
+           "            lo[ax] = min(p0, p1) - sag - r * (1.0 + 1e-9)\n", "            lo[ax] = min(p0, p1) - sag\n",
+           T_ROLL, "query box not dilated by the moving radius"),
+    Mutant("k-roll-stable-three", K + "roll3d.py",
+           "if _lambda3(n0, n1, n2, lam) and lam[0] >= -tol and lam[1] >= -tol and lam[2] >= -tol:",
+           "if _lambda3(n0, n1, n2, lam) and lam[0] >= -tol and lam[1] >= -tol:",
+           T_ROLL, "dropped check (stability cone of three contacts)"),
+    Mutant("k-grid-insert-half", K + "roll3d.py",
+           "    x0, x1 = _axis_range(pos[k, 0] - R, pos[k, 0] + R, gd[2], nx, per)\n",
+           "    x0, x1 = _axis_range(pos[k, 0], pos[k, 0] + R, gd[2], nx, per)\n",
+           T_ROLL, "sphere registered in half its cells"),
+    Mutant("k-dep3-fallback-alive-only", K + "deposit3d.py",
+           "    if not strict:\n        gd, ghead, gnext", "    if False:\n        gd, ghead, gnext",
+           ("tests/test_deposit_roll.py::test_surface_rule_at_large_size_ratios_places_no_sphere_into_the_bed",),
+           "the old fallback (overlaps tested against the surface spheres only)"),
+    Mutant("a-small-fraction-weights", "src/polypack/analysis/deposits.py",
+           "vs[:, j] = np.bincount(col, weights=v * small, minlength=nb)",
+           "vs[:, j] = np.bincount(col, weights=small * 1.0, minlength=nb)",
+           ("tests/test_deposit_roll.py::test_small_fraction_profile_of_a_stratified_column",),
+           "counts instead of volumes"),
+]
+
 
 # round 3 (issue 37): the weak areas of the property half, each caught by an oracle test
 T_PO = ("tests/test_property_oracles.py",)

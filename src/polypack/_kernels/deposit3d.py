@@ -75,6 +75,8 @@ from enum import IntEnum
 import numpy as np
 from numba import njit
 
+from .roll3d import grid_insert, grid_overlaps
+
 FLOOR = -1
 WALL_X0 = -2
 WALL_X1 = -3
@@ -90,6 +92,7 @@ class Deposit3DStatus(IntEnum):
 
     OK = 0
     NO_POSITION = 1  # no admissible position (never for valid input)
+    GRID_FULL = 2  # the all-sphere grid's entry pool ran out (never: sized by make_grid_3d)
 
 
 class Deposit3DParam(IntEnum):
@@ -231,10 +234,13 @@ def _stable(p, r, s0, s1, s2, pos, L, per, tol, nrm):
 
 
 @njit(cache=True)
-def _admissible(p, r, s0, s1, s2, pos, rad, L, per, tol, strict, head, nxt, hcell, ncx, ncy, rmax):
+def _admissible(p, r, s0, s1, s2, pos, rad, L, per, tol, strict, head, nxt, hcell, ncx, ncy, rmax, grid):
     """``strict``: on the envelope (reachable by a vertical drop); else only free of overlaps.
 
-    Checks the floor, the walls and every alive sphere whose column is within ``r + r_max``.
+    Checks the floor, the walls and, ``strict``, every alive sphere whose column is within
+    ``r + r_max`` (the envelope of the alive spheres is the envelope of all); not ``strict``
+    (a pocket under an overhang, below the envelope), every sphere placed, buried ones
+    included, from the all-sphere cell grid ``grid`` (:mod:`.roll3d`).
     """
     if p[2] < r * (1.0 - tol):
         return False
@@ -242,6 +248,9 @@ def _admissible(p, r, s0, s1, s2, pos, rad, L, per, tol, strict, head, nxt, hcel
         return False
     if not per[1] and (p[1] < r * (1.0 - tol) or p[1] > L[1] - r * (1.0 - tol)):
         return False
+    if not strict:
+        gd, ghead, gnext, gsph, gstamp, gcnt, gbuf = grid
+        return not grid_overlaps(p, r, pos, rad, gd, ghead, gnext, gsph, gstamp, gcnt, gbuf, tol)
     reach = r + rmax
     x_lo, x_hi, y_lo, y_hi = _window(p[0], p[1], reach, hcell, ncx, ncy, per)
     for qx in range(x_lo, x_hi + 1):
@@ -298,7 +307,7 @@ def _blocked_near(o0, o1, o2, Rs, nb, m, nbh, mh, tol, strict):
 
 @njit(cache=True)
 def _offer(p, r, s0, s1, s2, pos, rad, L, per, tol, strict, head, nxt, hcell, ncx, ncy, rmax, best, bsup, nrm,
-           owner, Rs, nb, m, nbh, mh):
+           owner, Rs, nb, m, nbh, mh, grid):
     """Test a candidate; keep it in ``best`` (z, x, y) / ``bsup`` if admissible, stable and better.
 
     ``owner`` (a sphere index, or -1) with ``Rs``, ``nb[:m]``, ``nbh[:mh]``: a quick rejection by
@@ -314,7 +323,7 @@ def _offer(p, r, s0, s1, s2, pos, rad, L, per, tol, strict, head, nxt, hcell, nc
     if owner >= 0 and _blocked_near(o0 - pos[owner, 0], o1 - pos[owner, 1], o2 - pos[owner, 2], Rs, nb, m, nbh, mh,
                                     tol, strict):
         return
-    if not _admissible(p, r, s0, s1, s2, pos, rad, L, per, tol, strict, head, nxt, hcell, ncx, ncy, rmax):
+    if not _admissible(p, r, s0, s1, s2, pos, rad, L, per, tol, strict, head, nxt, hcell, ncx, ncy, rmax, grid):
         return
     if not _stable(p, r, s0, s1, s2, pos, L, per, tol, nrm):
         return
@@ -364,7 +373,7 @@ def _report(code):
 
 @njit(cache=True)
 def _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, nxt, hcell, ncx, ncy, rmax,
-                   best, bsup, nb, nrm, thr, floor_ok, nbh):
+                   best, bsup, nb, nrm, thr, floor_ok, nbh, grid):
     """Best candidate owned by alive sphere ``s`` (the highest of its sphere supports), if below ``thr``.
 
     Only candidates lower than ``thr + tol * r`` are examined (``thr = inf``: all); if none
@@ -490,7 +499,7 @@ def _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, n
                 p[1] = sy + u * ex1 + v * ey1 + sg * w * ez1
                 p[2] = sz + u * ex2 + v * ey2 + sg * w * ez2
                 _offer(p, r, s, int(nb[a, 4]), int(nb[b, 4]), pos, rad, L, per, tol, strict, head, nxt, hcell,
-                       ncx, ncy, rmax, best, bsup, nrm, own, Rs, nb, m, nbh, mh)
+                       ncx, ncy, rmax, best, bsup, nrm, own, Rs, nb, m, nbh, mh, grid)
                 if w == 0.0:
                     break
     # --- two spheres and a plane: s, j, plane
@@ -552,7 +561,7 @@ def _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, n
                 p[1] = sy + off[1]
                 p[2] = sz + off[2]
                 _offer(p, r, sup_s, sup_a, code, pos, rad, L, per, tol, strict, head, nxt, hcell,
-                       ncx, ncy, rmax, best, bsup, nrm, own, Rs, nb, m, nbh, mh)
+                       ncx, ncy, rmax, best, bsup, nrm, own, Rs, nb, m, nbh, mh, grid)
                 if hh == 0.0:
                     break
     # --- one sphere and two planes: s, plane, plane
@@ -595,14 +604,14 @@ def _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, n
                 p[1] = sy + off[1]
                 p[2] = sz + off[2]
                 _offer(p, r, sup_s, planes[q1], planes[q2], pos, rad, L, per, tol, strict, head, nxt, hcell,
-                       ncx, ncy, rmax, best, bsup, nrm, own, Rs, nb, m, nbh, mh)
+                       ncx, ncy, rmax, best, bsup, nrm, own, Rs, nb, m, nbh, mh, grid)
                 if rt == 0.0:
                     break
 
 
 @njit(cache=True)
 def _global_candidates(r, pos, rad, L, per, tol, strict, planes, nplanes, head, nxt, hcell, ncx, ncy, rmax,
-                       best, bsup, nrm):
+                       best, bsup, nrm, grid):
     """Candidates without a sphere: three planes (the floor corner of the tie rule)."""
     best[0] = np.inf
     best[1] = np.inf
@@ -620,7 +629,7 @@ def _global_candidates(r, pos, rad, L, per, tol, strict, planes, nplanes, head, 
                 p[a2] = v2
                 p[a3] = v3
                 _offer(p, r, planes[q1], planes[q2], planes[q3], pos, rad, L, per, tol, strict, head, nxt,
-                       hcell, ncx, ncy, rmax, best, bsup, nrm, -1, 0.0, nrm, 0, nrm, 0)
+                       hcell, ncx, ncy, rmax, best, bsup, nrm, -1, 0.0, nrm, 0, nrm, 0, grid)
 
 
 @njit(cache=True)
@@ -754,7 +763,7 @@ def _min_cover_levels(k, pos, rad, covl, reach, nlev, hc, mx, my, L, per, out):
 
 
 @njit(cache=True)
-def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_i, cov):
+def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_i, cov, grid):
     """Place spheres ``start .. stop-1`` (radii ``rad``, in order) on the deposit of spheres ``0 .. start-1``.
 
     Parameters
@@ -785,6 +794,9 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
     cov : (mx * my * (1 + COVER_LEVELS),) float64, in/out
         Covered-height lower bound of the fine column grid: ``rmin`` first, then the levels
         interleaved per cell (``[mx * my + c * COVER_LEVELS + j]``).
+    grid : tuple ``(gd, head, ent_next, ent_sph, stamp, counters, buf)``
+        The all-sphere cell grid of :mod:`.roll3d` (:func:`make_grid_3d`; spheres ``< start``
+        registered), for the overlap test of the overhang fallback.
 
     Returns
     -------
@@ -792,6 +804,7 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
         :class:`Deposit3DStatus` code.
     """
     n = rad.shape[0]
+    gtops = np.full(int(grid[0][5]) * int(grid[0][6]), -np.inf)  # column tops: unused here
     L = np.empty(2)
     L[0] = params[Deposit3DParam.LX]
     L[1] = params[Deposit3DParam.LY]
@@ -864,7 +877,7 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
         gbest[2] = np.inf
         for strict in (True, False):
             _global_candidates(r, pos, rad, L, per, tol, strict, planes, nplanes, head, nxt, hcell, ncx, ncy, rmax,
-                               gbest, gsup, nrm)
+                               gbest, gsup, nrm, grid)
             if strict:
                 # lower bound on each alive sphere's owned candidates for this radius
                 keys = np.empty(n_alive)
@@ -902,7 +915,7 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
                     thr = gbest[0] + tol * r if strict and not search_all else np.inf
                     floor_ok = (not strict) or search_all or work_f[s, 4] <= rmin + tol * rmin
                     _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, nxt, hcell, ncx,
-                                   ncy, rmax, best, bsup, nb, nrm, thr, floor_ok, nbh)
+                                   ncy, rmax, best, bsup, nb, nrm, thr, floor_ok, nbh, grid)
                     state[Deposit3DState.N_RECOMPUTED] += 1
                     if strict:
                         work_f[s, 3] = r
@@ -936,6 +949,10 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
         pos[i, 0] = gbest[1]
         pos[i, 1] = gbest[2]
         pos[i, 2] = gbest[0]
+        if not grid_insert(i, pos, rad, grid[0], grid[1], grid[2], grid[3], gtops, grid[5]):
+            status = 2
+            state[Deposit3DState.N_PLACED] = i
+            break
         for a in range(3):
             support[i, a] = _report(gsup[a])
         # surface update: cover, invalidate caches nearby, bury dead spheres, add the new one
@@ -1005,6 +1022,17 @@ def make_work(n, lx, ly, rmax, column_cell, levels=0):
     return work_f, work_i, cov
 
 
+def make_grid_3d(rad, lx, ly, periodic):
+    """The all-sphere cell grid tuple of :func:`deposit_spheres` for the radii ``rad`` (all of them)."""
+    from . import roll3d as kr
+
+    rad = np.asarray(rad, dtype=np.float64)
+    height = float(4.0 / 3.0 * np.pi * np.sum(rad**3) / (lx * ly * 0.5)) + 4.0 * float(rad.max())
+    gd = kr.grid_layout(lx, ly, float(rad.min()), float(rad.max()), height, periodic)
+    head, ent_next, ent_sph, _tops, stamp, counters = kr.make_grid(rad.size, gd, kr.grid_capacity(rad, gd))
+    return (gd, head, ent_next, ent_sph, stamp, counters, np.zeros(max(rad.size, 1), np.int64))
+
+
 def warmup():
     """Compile the kernel on a tiny input."""
     n = 30
@@ -1014,4 +1042,4 @@ def warmup():
     support = np.zeros((n, 3), np.int64)
     state = np.zeros(Deposit3DState.N_STATE)
     work_f, work_i, cov = make_work(n, 5.0, 5.0, 0.5, 0.25, 4)
-    deposit_spheres(rad, params, pos, support, state, 0, n, work_f, work_i, cov)
+    deposit_spheres(rad, params, pos, support, state, 0, n, work_f, work_i, cov, make_grid_3d(rad, 5.0, 5.0, True))

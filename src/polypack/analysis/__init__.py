@@ -27,6 +27,7 @@ _LAZY = {
     "Contacts": "contacts",
     "DepositStatistics": "deposits",
     "free_surface_height": "deposits",
+    "small_fraction_profile": "deposits",
     "PoreSizes": "pores",
     "nearest_surface_distance": "pores",
     "ThreePointParameters": "threepoint",

@@ -17,8 +17,8 @@ from .._util import as_seed_sequence, progress_bar, rng_from, seed_record
 from ..errors import InvalidInputError, OverlapError
 from ..packing import Packing
 
-__all__ = ["deposit", "deposit_arrays", "deposit_arrays_3d", "DEFAULT_TOLERANCE", "DEFAULT_FRACTION_GUESS",
-           "DEFAULT_FLOOR_RULE"]
+__all__ = ["deposit", "deposit_arrays", "deposit_arrays_3d", "deposit_arrays_roll", "DEFAULT_TOLERANCE",
+           "DEFAULT_FRACTION_GUESS", "DEFAULT_FLOOR_RULE", "DEFAULT_RULE", "RULES"]
 
 DEFAULT_TOLERANCE = 1e-10
 """Relative tolerance of the kernel's contact tests and tie rule (heights equal within ``tol * r``)."""
@@ -34,6 +34,13 @@ DEFAULT_FRACTION_GUESS_3D = 0.6
 """The same for 3D deposits (a roughly cubic deposit)."""
 
 _CHUNK = 2000
+
+RULES = ("surface", "roll")
+"""Deposition rules of 3D deposits: ``"surface"``, each sphere to the lowest stable pocket of the free surface
+reachable by a vertical drop (:mod:`polypack._kernels.deposit3d`); ``"roll"``, drop at a random column and roll
+on the spheres below until stably supported (Visscher & Bolsterli 1972, :mod:`polypack._kernels.roll3d`)."""
+
+DEFAULT_RULE = "surface"
 
 
 def _parse_radii(sizes, dim=None):
@@ -222,6 +229,7 @@ def deposit_arrays_3d(radii, width, periodic=True, tolerance=DEFAULT_TOLERANCE, 
     support = np.zeros((n, 3), dtype=np.int64)
     state = np.zeros(int(k3.Deposit3DState.N_STATE))
     work_f, work_i, cov = k3.make_work(n, lx, ly, rmax, col, levels)
+    grid = k3.make_grid_3d(rad, lx, ly, periodic)
     chunk = 500
     with _interrupt.deferred(), progress_bar(total=n, desc="deposit", progress=progress, unit="sphere") as bar:
         k = 0
@@ -229,7 +237,7 @@ def deposit_arrays_3d(radii, width, periodic=True, tolerance=DEFAULT_TOLERANCE, 
             if _interrupt.consume():
                 raise KeyboardInterrupt
             stop = min(n, k + chunk)
-            status = k3.deposit_spheres(rad, params, pos, support, state, k, stop, work_f, work_i, cov)
+            status = k3.deposit_spheres(rad, params, pos, support, state, k, stop, work_f, work_i, cov, grid)
             if status != k3.Deposit3DStatus.OK:
                 raise RuntimeError(
                     f"3D deposition kernel stopped with {k3.Deposit3DStatus(status).name} at sphere "
@@ -243,7 +251,90 @@ def deposit_arrays_3d(radii, width, periodic=True, tolerance=DEFAULT_TOLERANCE, 
     return pos, support, stats
 
 
-def _deposit_3d(radii, species, width, boundary, order, seed, tol, progress):
+def deposit_arrays_roll(radii, width, drop, tolerance=DEFAULT_TOLERANCE, progress=None, bed_positions=None,
+                        bed_radii=None):
+    """Drop-and-roll deposit of spheres (3D, periodic x and y) **in the given order**; plain arrays in and out.
+
+    Parameters
+    ----------
+    radii : (N,) array of float
+        Radii in deposition order.
+    width : (2,) floats
+        Box lengths ``Lx, Ly`` (periodic).
+    drop : (N, 2) array of float
+        Release column ``(x, y)`` of each sphere (the random drop of Visscher & Bolsterli 1972).
+    tolerance : float
+        Relative tolerance of the contact tests.
+    progress : bool, optional
+        Progress bar (default: only on a terminal).
+    bed_positions, bed_radii : (M, 3), (M,) arrays, optional
+        Spheres fixed before the deposition (never moved); they come first in the output.
+
+    Returns
+    -------
+    positions : (M + N, 3) array
+    radii : (M + N,) array
+    supports : (M + N, 3) int64 array
+        Up to three supports of each sphere: indices, ``FLOOR`` or ``NO_SUPPORT`` (codes of
+        :mod:`polypack._kernels.roll3d`, the same values as :mod:`polypack._kernels.deposit3d`).
+    stats : dict
+        Motion statistics (events, spheres on the floor, neighbour entries examined).
+    """
+    from .._kernels import roll3d as kr
+
+    rad_new = np.ascontiguousarray(radii, dtype=np.float64).reshape(-1)
+    drop = np.ascontiguousarray(drop, dtype=np.float64).reshape(-1, 2)
+    if drop.shape[0] != rad_new.size:
+        raise InvalidInputError(f"drop has {drop.shape[0]} columns for {rad_new.size} spheres")
+    lx, ly = float(width[0]), float(width[1])
+    if bed_radii is None:
+        bed_p = np.zeros((0, 3))
+        bed_r = np.zeros(0)
+    else:
+        bed_p = np.array(bed_positions, dtype=np.float64).reshape(-1, 3)
+        bed_r = np.array(bed_radii, dtype=np.float64).reshape(-1)
+        if bed_r.shape[0] != bed_p.shape[0]:
+            raise InvalidInputError(f"bed has {bed_p.shape[0]} positions but {bed_r.shape[0]} radii")
+        if np.any(bed_r <= 0) or not np.all(np.isfinite(bed_r)) or not np.all(np.isfinite(bed_p)):
+            raise InvalidInputError("bed radii must be finite and > 0 and bed positions finite")
+        bed_p[:, 0] = np.mod(bed_p[:, 0], lx)
+        bed_p[:, 1] = np.mod(bed_p[:, 1], ly)
+    m = bed_r.size
+    rad = np.concatenate([bed_r, rad_new])
+    n = rad.size
+    pos = np.zeros((n, 3))
+    pos[:m] = bed_p
+    dr = np.zeros((n, 2))
+    dr[m:] = np.mod(drop, [lx, ly])
+    height = float(4.0 / 3.0 * np.pi * np.sum(rad**3) / (lx * ly * 0.5)) + 4.0 * float(rad.max())
+    if m:
+        height = max(height, float(np.max(bed_p[:, 2] + bed_r)) + height)
+    gd = kr.grid_layout(lx, ly, float(rad.min()), float(rad.max()), height, True)
+    head, ent_next, ent_sph, tops, stamp, counters = kr.make_grid(n, gd, kr.grid_capacity(rad, gd))
+    for k in range(m):
+        kr.grid_insert(k, pos, rad, gd, head, ent_next, ent_sph, tops, counters)
+    support = np.full((n, 3), kr.NO_SUPPORT, dtype=np.int64)
+    state = np.zeros(int(kr.RollState.N_STATE))
+    buf = np.zeros(n, dtype=np.int64)
+    chunk = 2000
+    with _interrupt.deferred(), progress_bar(total=n - m, desc="deposit", progress=progress, unit="sphere") as bar:
+        k = m
+        while k < n:
+            if _interrupt.consume():
+                raise KeyboardInterrupt
+            stop = min(n, k + chunk)
+            status = kr.deposit_roll(rad, dr, pos, support, state, k, stop, gd, head, ent_next, ent_sph, tops, stamp,
+                                     counters, buf, tolerance)
+            if status != 0:
+                raise RuntimeError("drop-and-roll kernel: cell grid pool exhausted (please report)")
+            bar.update(stop - k)
+            k = stop
+    stats = {"events": int(state[kr.RollState.N_EVENTS]), "stuck": int(state[kr.RollState.N_STUCK]),
+             "on_floor": int(state[kr.RollState.N_FLOOR]), "neighbours_examined": int(state[kr.RollState.N_GATHERED])}
+    return pos, rad, support, stats
+
+
+def _deposit_3d(radii, species, width, boundary, order, seed, tol, progress, rule=DEFAULT_RULE):
     periodic = boundary == "periodic"
     dmax = 2.0 * float(radii.max())
     if width is None:
@@ -262,14 +353,22 @@ def _deposit_3d(radii, species, width, boundary, order, seed, tol, progress):
             "needs L >= 4 d_max on both axes (unique minimum image of the supports)")
     if not periodic and w.min() < dmax:
         raise InvalidInputError(f"a sphere of diameter {dmax:g} is wider than the box width={w.min():g}")
+    if rule == "roll" and not periodic:
+        raise InvalidInputError("rule='roll' supports boundary='periodic' only")
     ss = as_seed_sequence(seed)
-    perm = rng_from(ss).permutation(radii.size) if order == "random" else np.arange(radii.size)
+    rng = rng_from(ss)
+    perm = rng.permutation(radii.size) if order == "random" else np.arange(radii.size)
     rad = radii[perm]
-    pos, support, stats = deposit_arrays_3d(rad, w, periodic, tol, progress)
+    if rule == "roll":
+        drop = rng.uniform(0.0, 1.0, (radii.size, 2)) * w
+        pos, _, support, stats = deposit_arrays_roll(rad, w, drop, tol, progress)
+    else:
+        pos, support, stats = deposit_arrays_3d(rad, w, periodic, tol, progress)
     height = float(np.max(pos[:, 2] + rad))
     meta = {
         "protocol": "deposit",
-        "method": "potential_minimisation",
+        "method": "drop_and_roll" if rule == "roll" else "potential_minimisation",
+        "rule": rule,
         "dim": 3,
         "boundary": boundary,
         "order": order,
@@ -288,7 +387,7 @@ def _deposit_3d(radii, species, width, boundary, order, seed, tol, progress):
 
 
 def deposit(sizes, width=None, boundary="periodic", order="random", seed=None, bed=None,
-            tolerance=DEFAULT_TOLERANCE, progress=None, dim=None, floor_rule=None):
+            tolerance=DEFAULT_TOLERANCE, progress=None, dim=None, floor_rule=None, rule=None):
     """Pack of disks (2D) or spheres (3D) built by sequential deposition (potential minimisation).
 
     Each disk, in turn, goes to the lowest centre height at which it rests on the floor,
@@ -338,6 +437,15 @@ def deposit(sizes, width=None, boundary="periodic", order="random", seed=None, b
         s ≈ 0.05 its memory reaches the bulk (``"centred"``: ρ depends on the width, see
         docs/deposition.md).  3D deposits have one rule (lowest, then smallest x, then
         smallest y): leave it out or pass ``"left"``.
+    rule : {"surface", "roll"}, optional
+        3D only (default ``"surface"``, :data:`DEFAULT_RULE`).  ``"surface"``: each sphere goes
+        to the lowest stable pocket of the free surface reachable by a vertical drop (the
+        global-minimum rule above; a sphere never enters the pores of the bed).  ``"roll"``:
+        each sphere is released at a random column (drawn from ``seed``) and rolls on the
+        spheres below it until it rests on three (or the floor), passing through every throat
+        it fits through: the drop-and-roll algorithm of Visscher & Bolsterli (1972), which
+        Jullien & Meakin (1990) used for the segregation of size mixtures; small spheres then
+        percolate to the bottom (seed 001 §1).  Periodic boundary only.
 
     Returns
     -------
@@ -374,12 +482,17 @@ def deposit(sizes, width=None, boundary="periodic", order="random", seed=None, b
         raise InvalidInputError(f"tolerance={tolerance!r} must be in (0, 1e-3]")
     if floor_rule not in (None, "left", "centred"):
         raise InvalidInputError(f"floor_rule={floor_rule!r}: allowed are 'centred' and 'left'")
+    if rule is not None and rule not in RULES:
+        raise InvalidInputError(f"rule={rule!r}: allowed are 'surface' and 'roll'")
     if dim == 3:
         if floor_rule == "centred":
             raise InvalidInputError("floor_rule='centred' is supported for 2D deposits only")
         if bed is not None:
             raise InvalidInputError("bed= is supported for 2D deposits only")
-        return _deposit_3d(radii, species, width, boundary, order, seed, tol, progress)
+        return _deposit_3d(radii, species, width, boundary, order, seed, tol, progress,
+                           DEFAULT_RULE if rule is None else rule)
+    if rule not in (None, "surface"):
+        raise InvalidInputError(f"rule={rule!r} is for 3D deposits; 2D deposits have the 'surface' rule only")
     if floor_rule is None:
         floor_rule = DEFAULT_FLOOR_RULE
     periodic = boundary == "periodic"
