@@ -173,3 +173,20 @@ def test_small_fraction_profile_of_a_stratified_column():
     assert pr["slope"] < 0 and pr["mean"] == pytest.approx(1.0 / 9.0)  # 4 small layers of volume 1/8 each
     with pytest.raises(pp.InvalidInputError, match="split"):
         small_fraction_profile(pk, split=0.1)
+
+
+def test_cli_deposit_3d_roll_with_plot(tmp_path, capsys):
+    """`polypack deposit --dim 3 --rule roll --plot`: spheres, the roll rule, the printed slope of the
+    small-volume fraction, and the figure (written atomically)."""
+    from polypack.cli import main
+
+    out, fig = tmp_path / "d.gsd", tmp_path / "p.png"
+    main(["deposit", "--dim", "3", "--rule", "roll", "--span", "0.9", "--min-total", "400", "--width", "4",
+          "--seed", "1", "--plot", str(fig), "-o", str(out)])
+    text = capsys.readouterr().out
+    assert "rule=roll" in text and "wrote" in text
+    pk = pp.io.read(out)
+    assert pk.dim == 3 and pk.meta["rule"] == "roll" and pk.min_gap() > -1e-9
+    assert fig.stat().st_size > 10_000
+    with pytest.raises(SystemExit):
+        main(["deposit", "--dim", "3", "--n", "50", "--plot", str(tmp_path / "p.txt")])

@@ -189,6 +189,36 @@ def test_deposit_protocol_in_3d_matches_pp_deposit(tmp_path):
     assert pk.min_gap() >= -1e-9
 
 
+def test_deposit_protocol_in_3d_with_the_roll_rule_and_the_segregation_profile(tmp_path):
+    """[protocol] rule = "roll" in 3D: the stage is pp.deposit(..., rule="roll") with the stage seed (the
+    same positions), and [analysis.deposit] records the small-volume fraction slope, its error and mean of
+    DepositStatistics (small_fraction_profile over the window, small_layers layers) and the per-strip curve."""
+    out = tmp_path / "r3r"
+    study = _dep_study(psd={"model": "uniform_volume", "d_min": 0.4, "d_max": 1.0, "n": 400, "dim": 3},
+                       analysis={"deposit": {"margin": 0.5, "small_layers": 4}}, width=4.0, rule="roll")
+    study["study"]["realizations"] = 1
+    pp.ensemble.run_study(study, out, progress=False)
+    rows = _rows(out)
+    pk = pp.io.read(out / "realizations" / "r0000.gsd")
+    assert pk.meta["rule"] == "roll" and pk.meta["method"] == "drop_and_roll"
+    rec = json.loads((out / "realizations" / "r0000.json").read_text())
+    sd = stage_seeds(rec["seed"])
+    direct = pp.deposit(pp.psd.config.make_sizes(validate(study)["psd"], sd[0]), seed=sd[1], width=4.0,
+                        rule="roll", progress=False)
+    np.testing.assert_array_equal(direct.positions, pk.positions)
+    st = pp.analysis.DepositStatistics(margin=0.5, small_layers=4).compute(pk)
+    assert len(st.small_profile["fraction"]) == 4
+    assert float(rows[0]["deposit.small_fraction_slope"]) == pytest.approx(st.small_profile["slope"], rel=1e-12)
+    assert float(rows[0]["deposit.small_fraction_slope_err"]) == pytest.approx(st.small_profile["slope_err"],
+                                                                               rel=1e-12)
+    curves = json.loads((out / "ensemble" / "curves.json").read_text())["analyses"]
+    assert "small_fraction" in curves["deposit"]["curves"]
+    with pytest.raises(InvalidInputError, match=r'protocol.rule = "roll": needs boundary = "periodic"'):
+        pp.ensemble.run_study(_dep_study(psd={"model": "uniform_volume", "d_min": 0.4, "d_max": 1.0, "n": 50,
+                                              "dim": 3}, rule="roll", boundary="walls"), tmp_path / "w",
+                              progress=False)
+
+
 def test_deposit_protocol_centred_floor_needs_2d_sizes(tmp_path):
     study = _dep_study(psd={"model": "uniform_volume", "d_min": 0.5, "d_max": 1.0, "n": 150}, floor_rule="centred")
     with pytest.raises(InvalidInputError, match=r'^protocol.floor_rule = "centred": only for 2D deposits'):

@@ -74,7 +74,8 @@ prints it with every type, bound, default and doc). The built-ins:
     colloidal gel by Brownian dynamics (``[psd]`` of one size; ``volume_fraction``,
     ``surface_potential`` and the SI options of :func:`polypack.brownian`; ``docs/brownian.md``).
     ``"deposit"``: sequential deposition of disks (``[psd] dim = 2``) or spheres (3D; ``width``,
-    ``boundary``, ``order``, ``tolerance``, ``floor_rule`` (2D); ``docs/deposition.md``).
+    ``boundary``, ``order``, ``tolerance``, ``floor_rule`` (2D), ``rule`` (3D: ``"surface"`` or
+    ``"roll"``, drop-and-roll); ``docs/deposition.md``).
 ``[analysis.rdf]``
     ``r_max`` (> 0, user length units), ``dr`` (> 0), ``method``, ``scale``.
 ``[analysis.kfunction]``
@@ -92,7 +93,8 @@ prints it with every type, bound, default and doc). The built-ins:
     oscillatory shear test by bonded DEM (``docs/dem.md``): the bond options of
     ``[analysis.elastic]`` and those of :func:`polypack.mechanics.oscillatory_shear`.
 ``[analysis.deposit]``
-    window statistics of a 2D deposit: ``margin``, ``contact_tolerance``, ``n_bins``.
+    window statistics of a 2D or 3D deposit: ``margin``, ``contact_tolerance``, ``n_bins``; 3D:
+    ``small_split``, ``small_layers`` (small-volume fraction against height, its slope and error).
 ``[analysis.moduli]``
     effective moduli of the composite (``docs/moduli.md``): ``matrix`` and ``inclusions``
     (``[E, nu]``, required), ``three_point``, ``mefm``.

@@ -1,4 +1,4 @@
-"""``polypack deposit``: 2D deposits of disks by potential minimisation (seed 001 §2.4)."""
+"""``polypack deposit``: deposits of disks (2D) or spheres (3D) by potential minimisation (seed 001 §2.4)."""
 
 from __future__ import annotations
 
@@ -32,8 +32,15 @@ def register(app: typer.Typer) -> None:
         seed: Optional[int] = typer.Option(None, "--seed", help="Random seed (recorded in the output)."),
         output: Optional[Path] = typer.Option(None, "--output", "-o", help="Output file (.gsd, .xyz, .csv, .vtp)."),
         progress: Optional[bool] = typer.Option(None, "--progress/--no-progress", help="Progress bar."),
+        dim: int = typer.Option(2, "--dim", help="2 (disks) or 3 (spheres; --width is the side of the square footprint)."),
+        rule: Optional[str] = typer.Option(
+            None, "--rule", help="3D: 'surface' (lowest stable surface pocket, default) or 'roll' (drop-and-roll, "
+            "Visscher & Bolsterli 1972: small spheres enter the pores; periodic only)."),
+        plot: Optional[Path] = typer.Option(
+            None, "--plot", help="Write a figure of the height profiles (packing fraction; 3D: small-sphere volume "
+            "fraction with standard errors) to this file (.png, .pdf, .svg)."),
     ):
-        """Deposit disks one by one at the lowest pocket of the free surface; print the bulk statistics."""
+        """Deposit disks or spheres one by one; print the bulk statistics."""
         import polypack as pp
 
         if sizes is not None:
@@ -42,14 +49,14 @@ def register(app: typer.Typer) -> None:
             from .pack_commands import _read_radius_csv
 
             radii, species = _read_radius_csv(sizes)
-            src = pp.psd.SizeSet(radii, species, dim=2)
+            src = pp.psd.SizeSet(radii, species, dim=dim)
         elif span is not None:
             if not (0.0 <= span < 1.0):
                 raise InvalidInputError(f"--span {span}: must be in [0, 1)")
             if span == 0.0:
-                src = np.full(max(min_total, 1), 0.5)
+                src = pp.psd.SizeSet(np.full(max(min_total, 1), 0.5), dim=dim)
             else:
-                model = pp.psd.CumulativeBeta(a=a, b=b, span=span, d_max=1.0, dim=2)
+                model = pp.psd.CumulativeBeta(a=a, b=b, span=span, d_max=1.0, dim=dim)
                 src = pp.psd.discretize(model, n_classes=10, min_per_class=10, min_total=min_total,
                                         max_total=10**6, seed=seed)
         elif n is not None:
@@ -57,22 +64,72 @@ def register(app: typer.Typer) -> None:
                 raise InvalidInputError(f"--n {n}: need at least 1 disk")
             if not radius > 0:
                 raise InvalidInputError(f"--radius {radius}: must be > 0")
-            src = np.full(n, float(radius))
+            src = pp.psd.SizeSet(np.full(n, float(radius)), dim=dim)
         else:
             raise InvalidInputError("give a size-set file, --span (CB model) or --n (equal disks)")
+        if dim not in (2, 3):
+            raise InvalidInputError(f"--dim {dim}: allowed are 2 and 3")
+        if plot is not None and plot.suffix.lower() not in (".png", ".pdf", ".svg"):
+            raise InvalidInputError(f"--plot {plot}: the file must end in .png, .pdf or .svg")
         pk = pp.deposit(src, width=width, boundary=boundary, order=order, seed=seed, progress=progress,
-                        floor_rule=floor_rule)
-        msg = (f"deposited N={pk.n} box={pk.box[0]:.6g}x{pk.box[1]:.6g} boundary={boundary} floor_rule={floor_rule} "
-               f"min_gap={pk.min_gap():.3e}")
+                        floor_rule=floor_rule if dim == 2 else None, rule=rule)
+        rule_word = f"floor_rule={floor_rule}" if dim == 2 else f"rule={pk.meta.get('rule')}"
+        box = "x".join(f"{v:.6g}" for v in pk.box)
+        msg = f"deposited N={pk.n} box={box} boundary={boundary} {rule_word} min_gap={pk.min_gap():.3e}"
+        st = None
         try:
             st = pp.analysis.DepositStatistics().compute(pk)
             sh = st.contact_shares
-            msg += (f" packing_fraction={st.packing_fraction:.5f} (window of {st.n_window} disks)"
+            msg += (f" packing_fraction={st.packing_fraction:.5f} (window of {st.n_window} {'disks' if dim == 2 else 'spheres'})"
                     f" coordination={st.coordination:.4f} shares(3,4,5)="
                     f"{sh.get(3, 0.0):.3f},{sh.get(4, 0.0):.3f},{sh.get(5, 0.0):.3f}")
+            sp = st.small_profile if dim == 3 else None
+            if sp is not None:
+                msg += (f" small_fraction_slope={sp['slope']:.4g}+-{sp['slope_err']:.2g} per length unit"
+                        f" (small: r < {sp['split']:.4g})")
         except InvalidInputError as exc:
             msg += f" (no bulk window: {exc})"
         typer.echo(msg)
+        if plot is not None:
+            _plot_profiles(pk, st, plot)
+            typer.echo(f"wrote {plot}")
         if output is not None:
             pp.io.write(output, pk)
             typer.echo(f"wrote {output}")
+
+
+def _plot_profiles(pk, st, path):
+    """Height profiles of a deposit: strip packing fraction, and in 3D the small-sphere volume fraction."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from ..analysis.deposits import small_fraction_profile
+    from .._util import atomic_path
+
+    three = pk.dim == 3 and float(pk.radii.min()) < float(pk.radii.max())
+    fig, axes = plt.subplots(1, 2 if three else 1, figsize=(9 if three else 4.5, 4.5), squeeze=False)
+    ax = axes[0, 0]
+    if st is None:
+        import polypack as pp
+
+        st = pp.analysis.DepositStatistics(margin=0.0).compute(pk)
+    ax.plot(st.profile_fraction, st.profile_height, "-o", ms=3)
+    ax.set_xlabel("packing fraction of the horizontal strip (–)")
+    ax.set_ylabel("height above the floor (length unit of the radii)")
+    ax.set_title(f"N = {pk.n}, {pk.meta.get('rule', pk.meta.get('floor_rule', ''))}")
+    if three:
+        ax = axes[0, 1]
+        top = float(np.max(pk.positions[:, -1]))
+        pr = small_fraction_profile(pk, window=(0.0, top), n_layers=12)
+        ax.errorbar(pr["fraction"], pr["height"], xerr=pr["fraction_err"], fmt="-o", ms=3, capsize=2)
+        ax.axvline(pr["mean"], color="0.6", ls="--", label=f"whole deposit {pr['mean']:.3f}")
+        ax.set_xlabel(f"small-sphere volume fraction (r < {pr['split']:.3g}) (–)")
+        ax.set_ylabel("height above the floor (length unit of the radii)")
+        ax.set_title(f"slope {pr['slope']:.3g} ± {pr['slope_err']:.2g} per length unit")
+        ax.legend(loc="best")
+    fig.tight_layout()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format=path.suffix.lstrip(".").lower())
+    plt.close(fig)

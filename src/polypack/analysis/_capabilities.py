@@ -51,6 +51,9 @@ class DepositOptions:
     margin: float = option(None, v.non_negative, "distance excluded from floor, walls and free surface (8 d_max)")
     contact_tolerance: float = option(None, v.non_negative, "relative gap below which two disks touch (1e-9)")
     n_bins: int = option(None, v.int_min(1), "height bins of the profiles (40)")
+    small_split: float = option(None, v.positive, "3D: radius separating small from large spheres in the "
+                                "segregation profile (sqrt(r_min r_max))")
+    small_layers: int = option(None, v.int_min(2), "3D: window layers of the small-volume fraction profile (8)")
 
 
 def run_rdf(packing, opts, seed):
@@ -99,6 +102,8 @@ def run_deposit(packing, opts, seed):
     d = est.to_dict()
     prof = d.pop("profile")
     d.update(height=prof["height"], fraction=prof["fraction"], mean_diameter=prof["mean_diameter"])
+    if "small_fraction" in prof:
+        d["small_fraction"] = prof["small_fraction"]
     return d
 
 
@@ -138,7 +143,8 @@ register("analysis", "pores", PoresOptions, run_pores,
          doc="pore-size distribution and degree of heterogeneity, Eq. (6) of 003_873b69fc71c74cf6.txt", requires=(_A + "PoreSizes",),
          kernels=("polypack._kernels.cells", "polypack._kernels.analysis"))
 register("analysis", "deposit", DepositOptions, run_deposit,
-         Outputs(scalars=("packing_fraction", "packing_fraction_err", "coordination"), flatten=("contact_shares",),
+         Outputs(scalars=("packing_fraction", "packing_fraction_err", "coordination", "small_fraction_slope",
+                          "small_fraction_slope_err", "small_fraction_mean"), flatten=("contact_shares",),
                  curves=Curves("height", "height above the floor y (user length units)",
                                "packing fraction of the strip", plot=("fraction",))),
          doc="packing fraction, coordination and height profiles of a deposit (2D or 3D) in a bulk window (§2.4 of "

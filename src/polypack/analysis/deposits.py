@@ -177,6 +177,12 @@ class DepositStatistics(Estimator):
         Relative gap below which two disks touch (deposits are exact: 1e-9 default).
     n_bins : int
         Height bins of the profiles (over the whole deposit height).
+    small_split : float, optional
+        3D: radius separating small from large spheres for the segregation profile
+        (default ``sqrt(r_min r_max)``; see :func:`small_fraction_profile`).
+    small_layers : int
+        3D: layers of the window in the small-volume fraction profile (its slope and
+        standard error are ``small_fraction_slope``, ``small_fraction_slope_err``).
 
     Results
     -------
@@ -191,8 +197,19 @@ class DepositStatistics(Estimator):
     (``packing_fraction_err``: standard error between realizations).
     """
 
-    def __init__(self, margin=None, contact_tolerance=1e-9, n_bins=40):
+    def __init__(self, margin=None, contact_tolerance=1e-9, n_bins=40, small_split=None, small_layers=8):
         super().__init__()
+        if small_split is not None:
+            try:
+                small_split = float(small_split)
+            except (TypeError, ValueError):
+                raise InvalidInputError(f"small_split={small_split!r} must be a radius > 0") from None
+            if not np.isfinite(small_split) or small_split <= 0:
+                raise InvalidInputError(f"small_split={small_split!r} must be a radius > 0")
+        if int(small_layers) != small_layers or small_layers < 2:
+            raise InvalidInputError(f"small_layers={small_layers!r} must be an integer >= 2")
+        self.small_split = small_split
+        self.small_layers = int(small_layers)
         if margin is not None:
             try:
                 margin = float(margin)
@@ -257,9 +274,11 @@ class DepositStatistics(Estimator):
                 mean_d[b] = 2.0 * rad[sel].mean()
         return self._record(np.array([x0, x1, y0, y1]), rho, zin, shares, inside, edges, frac, mean_d)
 
-    def _record(self, window, rho, zin, shares, inside, edges, frac, mean_d):
+    def _record(self, window, rho, zin, shares, inside, edges, frac, mean_d, small=None, small_frac=None):
         """Append one realization's frame (the same fields in 2D and 3D) and return self."""
         self._frames.append({
+            "small": small,
+            "small_fraction": small_frac,
             "window": window,
             "packing_fraction": np.array(rho),
             "coordination": np.array(zin.mean() if zin.size else np.nan),
@@ -319,7 +338,21 @@ class DepositStatistics(Estimator):
         window = np.array([lo[0], hi[0], lo[1], hi[1], lo[2], hi[2]])
         if swapped:  # report the window in the pack's own axis order
             window = window[[2, 3, 0, 1, 4, 5]]
-        return self._record(window, rho, zin, shares, inside, edges, frac, mean_d)
+        small = small_frac = None
+        if rad.min() < rad.max():
+            # segregation: small-sphere volume share in the window's layers (slope, errors) and per strip
+            small = small_fraction_profile(packing, window=(lo[2], hi[2]), n_layers=self.small_layers,
+                                           split=self.small_split)
+            cut = small["split"]
+            zc = pos[:, 2]
+            small_frac = np.full(self.n_bins, np.nan)
+            for b in range(self.n_bins):
+                lo_ = np.clip(edges[b] - zc, -rad, rad)
+                hi_ = np.clip(edges[b + 1] - zc, -rad, rad)
+                v = np.pi * (rad * rad * (hi_ - lo_) - (hi_**3 - lo_**3) / 3.0)
+                if v.sum() > 0:
+                    small_frac[b] = float(np.sum(v[rad < cut]) / v.sum())
+        return self._record(window, rho, zin, shares, inside, edges, frac, mean_d, small, small_frac)
 
     # ------------------------------------------------------------------ results
     @property
@@ -375,14 +408,34 @@ class DepositStatistics(Estimator):
         self._require()
         return self._frames[-1]["mean_diameter"]
 
+    @property
+    def small_profile(self):
+        """3D with two sizes or more: :func:`small_fraction_profile` over the window (last realization), else None."""
+        self._require()
+        return self._frames[-1]["small"]
+
+    @property
+    def profile_small_fraction(self):
+        """3D: small-sphere volume share in each strip of the height profile (None in 2D or for one size)."""
+        self._require()
+        return self._frames[-1]["small_fraction"]
+
     def to_dict(self):
-        return to_jsonable({
+        out = {
             "window": self.window, "packing_fraction": self.packing_fraction,
             "packing_fraction_err": self.packing_fraction_err, "coordination": self.coordination,
             "contact_shares": self.contact_shares, "n_realizations": self.n_realizations,
             "profile": {"height": self.profile_height, "fraction": self.profile_fraction,
                         "mean_diameter": self.profile_mean_diameter},
-        })
+        }
+        sp = self.small_profile
+        if sp is not None:
+            out["profile"]["small_fraction"] = self.profile_small_fraction
+            out["small_fraction_slope"] = sp["slope"]
+            out["small_fraction_slope_err"] = sp["slope_err"]
+            out["small_fraction_mean"] = sp["mean"]
+            out["small_layers"] = {k: sp[k] for k in ("height", "fraction", "fraction_err", "split")}
+        return to_jsonable(out)
 
     def plot(self, ax=None):
         """Height profiles of packing fraction (and mean diameter on a twin axis)."""

@@ -244,6 +244,9 @@ class DepositOptions:
     tolerance: float = option(None, v.positive, "relative tolerance of contacts and ties (<= 1e-3)")
     floor_rule: str = option(None, v.choice("left", "centred"),
                              "2D bare floor: midpoint (centred, the default, as LMGC90) or leftmost point (left) of the leftmost bare stretch")
+    rule: str = option(None, v.choice("surface", "roll"),
+                       "3D: lowest stable surface pocket (surface, the default) or drop-and-roll (roll, Visscher & "
+                       "Bolsterli 1972: small spheres enter the pores; periodic only)")
 
 
 _P = "polypack.generate.protocols:"
@@ -257,9 +260,11 @@ DEPOSIT_WORDS = {
     "chain_max": "longest free-surface chain (2D)", "alive": "live surface spheres at the end (3D)",
     "alive_max": "most live surface spheres (3D)", "overhang_placements": "overhang placements (3D)",
     "candidate_searches": "candidate searches (3D)", "improving_searches": "improving searches (3D)",
+    "events": "contacts made or lost while rolling (3D roll)", "stuck": "spheres stopped by the event cap (3D roll)",
+    "on_floor": "spheres on the floor (3D roll)", "neighbours_examined": "neighbour entries examined (3D roll)",
 }
 
 register("protocol", "deposit", DepositOptions, _P + "run_deposit", Outputs(meta=(), labels=DEPOSIT_WORDS),
          doc="sequential deposition of disks (2D) or spheres (3D) by potential minimisation, §2.4 of 001_ad5bae0acea940c4.txt",
          requires=("polypack.generate:deposit",), preflight=_P + "preflight_deposit",
-         kernels=("polypack._kernels.deposit", "polypack._kernels.deposit3d"))
+         kernels=("polypack._kernels.deposit", "polypack._kernels.deposit3d", "polypack._kernels.roll3d"))

@@ -89,8 +89,14 @@ def run_brownian(sizes, pr: dict, seed, monitor=None):
 
 
 def preflight_deposit(pr: dict, info: dict, path: str = "protocol") -> None:
-    """Before a study runs: ``floor_rule = "centred"`` needs 2D sizes (``[psd] dim = 2``)."""
+    """Before a study runs: ``floor_rule = "centred"`` needs 2D sizes (``[psd] dim = 2``), ``rule = "roll"`` 3D
+    sizes and a periodic footprint."""
     dim = info.get("dim", 3)
+    if pr.get("rule") == "roll" and dim != 3:
+        raise InvalidInputError(f'{path}.rule = "roll": only for 3D deposits (set [psd] dim = 3; the sizes are '
+                                f"for dim={dim})")
+    if pr.get("rule") == "roll" and pr.get("boundary", "periodic") != "periodic":
+        raise InvalidInputError(f'{path}.rule = "roll": needs boundary = "periodic"')
     if pr.get("floor_rule") not in (None, "left") and dim != 2:
         raise InvalidInputError(
             f'{path}.floor_rule = "{pr["floor_rule"]}": only for 2D deposits (set [psd] dim = 2; the sizes are '
@@ -105,5 +111,5 @@ def run_deposit(sizes, pr: dict, seed, monitor=None):
     """
     from .deposit import deposit
 
-    kw = {k: pr[k] for k in ("width", "boundary", "order", "tolerance", "floor_rule") if k in pr}
+    kw = {k: pr[k] for k in ("width", "boundary", "order", "tolerance", "floor_rule", "rule") if k in pr}
     return deposit(sizes, seed=seed, progress=False, **kw)
