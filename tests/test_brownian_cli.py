@@ -31,7 +31,7 @@ def test_brownian_command(tmp_path):
     import polypack as pp
 
     target = tmp_path / "gel.gsd"
-    out = _cli("brownian", str(target), "--n", "150", "--psi", "0", "--max-time", "0.01", "--seed", "3",
+    out = _cli("brownian", str(target), "--n", "150", "--surface-potential", "0", "--max-time", "0.01", "--seed", "3",
                "--no-progress")
     assert out.returncode == 0, out.stderr
     assert "coordination" in out.stdout

@@ -150,6 +150,21 @@ def size_ratio(v):
     return v
 
 
+def between(lo, hi, *, lo_open=True, hi_open=False, why=""):
+    """Check for a number in the interval from ``lo`` to ``hi`` (open or closed ends); ``why`` is
+    appended to the reason (``"VEM reaches (0, 0.6]"``)."""
+    text = f"{'(' if lo_open else '['}{lo:g}, {hi:g}{')' if hi_open else ']'}"
+
+    def check_between(v):
+        v = number(v)
+        if (v <= lo if lo_open else v < lo) or (v >= hi if hi_open else v > hi):
+            raise Bad(f"must be in {text}" + (f" ({why})" if why else ""))
+        return v
+
+    check_between.describe = f"number in {text}"
+    return check_between
+
+
 def int_min(lo):
     """Check for an integer ``>= lo``."""
 

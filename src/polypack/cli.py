@@ -68,6 +68,9 @@ def _register_commands():
         reg = getattr(m, "register", None)
         if reg is not None:
             reg(app)
+    from ._cli._generated import register_generated
+
+    register_generated(app)  # every protocol and mechanics stage without a hand-written command
 
 
 _register_commands()

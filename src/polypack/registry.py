@@ -67,6 +67,9 @@ __all__ = [
     "STAGE_KINDS",
     "option_specs",
     "resolve_table",
+    "defaults",
+    "api_kwargs",
+    "check_call",
     "ENTRY_POINT_GROUP",
 ]
 
@@ -85,7 +88,8 @@ class _Required:
 REQUIRED = _Required()
 
 
-def option(default=None, check=None, doc: str = "", *, unit: str = "", study: bool = True, cli: bool = True):
+def option(default=None, check=None, doc: str = "", *, unit: str = "", study: bool = True, cli: bool = True,
+           api: str = "", fill: bool = True):
     """A dataclass field for an options class, with its check and doc in the metadata.
 
     Parameters
@@ -99,11 +103,21 @@ def option(default=None, check=None, doc: str = "", *, unit: str = "", study: bo
     doc : str
         One line for the generated docs and CLI help.
     unit : str
-        Unit or reduced coordinate of the value (for docs).
+        Unit or reduced coordinate of the value: the one unit of the quantity in the
+        Python API, the study file and the command line alike (docs and CLI help show it).
     study, cli : bool
         Whether the option is offered in study files and on the command line.
+    api : str
+        Keyword of the public function when it differs from the field name
+        (``shake_method`` -> ``shake(method=...)``); see :func:`api_kwargs`.
+    fill : bool
+        Whether :func:`resolve_table` writes the default into a resolved study table.
+        ``False`` keeps an unset option absent (the run function applies the same
+        declared default), so the fingerprints of studies written before the default was
+        declared here stay the same.
     """
-    md = {"check": check, "doc": doc, "unit": unit, "study": study, "cli": cli, "required": default is REQUIRED}
+    md = {"check": check, "doc": doc, "unit": unit, "study": study, "cli": cli, "required": default is REQUIRED,
+          "api": api, "fill": fill}
     if isinstance(default, (list, dict)):
         return field(default_factory=lambda d=default: copy.deepcopy(d), metadata=md)
     return field(default=None if default is REQUIRED else default, metadata=md)
@@ -251,6 +265,8 @@ class OptionSpec:
     required: bool
     study: bool
     cli: bool
+    api: str = ""
+    fill: bool = True
 
     @property
     def describe(self) -> str:
@@ -272,7 +288,43 @@ def option_specs(options_cls) -> dict:
             default = REQUIRED
         required = md.get("required", default is REQUIRED)
         out[f.name] = OptionSpec(f.name, REQUIRED if required else default, md.get("check"), md.get("doc", ""),
-                                 md.get("unit", ""), required, md.get("study", True), md.get("cli", True))
+                                 md.get("unit", ""), required, md.get("study", True), md.get("cli", True),
+                                 md.get("api", ""), md.get("fill", True))
+    return out
+
+
+def defaults(options_cls) -> dict:
+    """``{field: default}`` of an options dataclass (the public functions take their defaults from here)."""
+    return {k: s.default for k, s in option_specs(options_cls).items() if not s.required}
+
+
+def api_kwargs(options_cls, table: dict) -> dict:
+    """Keyword arguments of the public function from a resolved table (field names -> ``api`` names)."""
+    specs = option_specs(options_cls)
+    return {(specs[k].api or k) if k in specs else k: v for k, v in table.items()}
+
+
+def check_call(options_cls, kwargs: dict) -> dict:
+    """Check the keyword arguments of a public function against its options dataclass.
+
+    Every value goes through its field's check (the same check as the study file and the
+    CLI); returns the normalised values.
+
+    Raises
+    ------
+    InvalidInputError
+        ``"{key}={value!r}: {reason}"`` (the Python API's form), or an unknown keyword.
+    """
+    specs = option_specs(options_cls)
+    out = {}
+    for key, value in kwargs.items():
+        spec = specs.get(key)
+        if spec is None:
+            raise InvalidInputError(f"{key}: unknown option; allowed: {', '.join(specs)}")
+        try:
+            out[key] = spec.check(value) if spec.check is not None else value
+        except Bad as exc:
+            raise InvalidInputError(f"{key}={value!r}: {exc}") from None
     return out
 
 
@@ -302,7 +354,7 @@ def resolve_table(specs: dict, table, path: str, *, fill_defaults: bool = True) 
                 continue
             if spec.required:
                 raise InvalidInputError(f"{path}.{key}: required key is missing")
-            if spec.default is not None:
+            if spec.default is not None and spec.fill:
                 out[key] = copy.deepcopy(spec.default)
     return out
 

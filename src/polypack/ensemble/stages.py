@@ -123,9 +123,9 @@ def _check_shake_options(pr):
         pp.shake(tiny, global_shakes=0, seed=0, progress=False, **opts)
     except InvalidInputError as exc:
         msg = str(exc)
-        from ..generate._capabilities import _SHAKE_KEYS  # protocol key -> shake() argument
+        from ..generate._capabilities import SHAKE_KEYWORDS  # protocol key -> shake() argument
 
-        key = next((k for k, a in _SHAKE_KEYS if msg.startswith(f"{a}=")), None)
+        key = next((k for k, a in SHAKE_KEYWORDS.items() if msg.startswith(f"{a}=")), None)
         raise InvalidInputError(f"protocol.{key}: {msg}" if key else f"protocol: {msg}") from None
 
 

@@ -20,17 +20,19 @@ from dataclasses import dataclass
 from .. import _validate as v
 from ..registry import Outputs, option, register
 
-_SHAKE_KEYS = (("shake_radius", "shake_radius"), ("max_trials", "max_trials"), ("shake_method", "method"),
-               ("adaptive", "adaptive"))
-
-
 def _shake_fields():
+    """The options of the global shakes, shared by ``crm`` and ``scrm`` (``api``: the keyword of
+    :func:`polypack.shake` when it differs from the field name)."""
     return dict(
         shake_radius=option(None, v.positive, "shake-window radius R_sh in units of the sphere radius", unit="a"),
         max_trials=option(None, v.int_min(1), "trial moves per sphere and global shake N_sh"),
-        shake_method=option(None, v.choice("paper", "collision", "metropolis"), "shaking variant"),
+        shake_method=option(None, v.choice("paper", "collision", "metropolis"), "shaking variant", api="method"),
         adaptive=option(None, v.boolean, "adapt R_sh towards a target acceptance"),
     )
+
+
+#: ``[protocol]`` key -> :func:`polypack.shake` keyword, from the field declarations.
+SHAKE_KEYWORDS = {k: (f.metadata["api"] or k) for k, f in _shake_fields().items()}
 
 
 @dataclass(frozen=True)
@@ -62,7 +64,7 @@ class SCRMOptions:
 
 def shake_options(pr: dict) -> dict:
     """Keyword arguments of :func:`polypack.shake` from a resolved protocol table."""
-    return {arg: pr[key] for key, arg in _SHAKE_KEYS if key in pr}
+    return {arg: pr[key] for key, arg in SHAKE_KEYWORDS.items() if key in pr}
 
 
 def run_crm(sizes, pr: dict, seed, monitor=None):
@@ -132,46 +134,51 @@ register("protocol", "scrm", SCRMOptions, run_scrm, Outputs(meta=("shake", "scrm
          check=check_scrm, kernels=("polypack._kernels.cells", "polypack._kernels.edmd", "polypack._kernels.shake"))
 
 
+#: Largest structure volume fraction the voids of VEM can expand in (below random close packing).
+VEM_MAX_VOLUME_FRACTION = 0.6
+
+
 @dataclass(frozen=True)
 class VEMOptions:
-    volume_fraction: float = option(0.4, v.fraction_open, "structure volume fraction Φ in (0, 0.6]")
+    """``[protocol] kind = "vem"`` and the keywords of :func:`polypack.vem` (one declaration for both).
+
+    The defaults are those of §2.2 and Table 1 of 003_873b69fc71c74cf6.txt; the unset ones
+    are not written into a resolved study (``fill=False``: the fingerprints of earlier VEM
+    studies stay the same) and :func:`polypack.vem` applies the same declared defaults.
+    """
+
+    volume_fraction: float = option(0.4, v.between(0.0, VEM_MAX_VOLUME_FRACTION, why="the voids need room to "
+                                                   "expand below random close packing"),
+                                    "structure volume fraction Φ")
     void_ratio: float = option(1.0, v.positive, "void to structure sphere number ratio N_V / N")
-    growth_factor: float = option(None, v.positive, "void radius factor per expansion stage (default 1.02)")
-    initial_void_radius: float = option(None, v.positive, "initial void radius / mean structure radius (0.1)")
-    normal_stiffness: float = option(None, v.positive, "kn of structure contacts (100)", unit="N/m")
-    shear_stiffness: float = option(None, v.non_negative, "ks of structure contacts (10)", unit="N/m")
-    void_normal_stiffness: float = option(None, v.positive, "kn,V of void contacts (1e2)", unit="N/m")
-    void_shear_stiffness: float = option(None, v.non_negative, "ks,V of void contacts (1e-2)", unit="N/m")
-    friction: float = option(None, v.non_negative, "Coulomb friction of the contacts (0)")
-    damping: float = option(None, v.non_negative, "local damping coefficient α (0.9)")
-    ratio_tolerance: float = option(None, v.positive, "per-stage unbalanced-force ratio (0.01)")
-    jam_overlap: float = option(None, v.positive, "stop: void-contact overlap per void after relaxation (1e-3)")
-    final_relaxation: str = option(None, v.choice("project", "dynamics"), "overlap removal after the voids go")
-    structure_contacts: str = option(None, v.choice("frictionless", "sticky"),
-                                     "structure contacts during the expansion: repulsive only, or bonded at first touch")
-
-
-_VEM_KEYS = ("void_ratio", "growth_factor", "initial_void_radius", "normal_stiffness", "shear_stiffness",
-             "void_normal_stiffness", "void_shear_stiffness", "friction", "damping", "ratio_tolerance",
-             "jam_overlap", "final_relaxation", "structure_contacts")
+    growth_factor: float = option(1.02, v.between(1.0, 1.5), "void radius factor per expansion stage", fill=False)
+    initial_void_radius: float = option(0.1, v.between(0.0, 0.5), "initial void radius / mean structure radius",
+                                        fill=False)
+    normal_stiffness: float = option(100.0, v.positive, "kn of structure contacts", unit="N/m", fill=False)
+    shear_stiffness: float = option(10.0, v.non_negative, "ks of structure contacts", unit="N/m", fill=False)
+    void_normal_stiffness: float = option(100.0, v.positive, "kn,V of void contacts", unit="N/m", fill=False)
+    void_shear_stiffness: float = option(0.01, v.non_negative, "ks,V of void contacts", unit="N/m", fill=False)
+    friction: float = option(0.0, v.non_negative, "Coulomb friction of the contacts", fill=False)
+    damping: float = option(0.9, v.between(0.0, 1.0, lo_open=False, hi_open=True), "local damping coefficient α",
+                            fill=False)
+    ratio_tolerance: float = option(0.01, v.positive, "per-stage unbalanced-force ratio", fill=False)
+    jam_overlap: float = option(1e-3, v.positive, "stop: void-contact overlap per void after relaxation",
+                                fill=False)
+    check_every: int = option(50, v.int_min(1), "DEM steps between force-ratio checks", fill=False)
+    stage_steps: int = option(3000, v.int_min(1), "largest number of DEM steps of one expansion stage", fill=False)
+    max_stages: int = option(400, v.int_min(1), "largest number of expansion stages", fill=False)
+    final_relaxation: str = option("project", v.choice("project", "dynamics"), "overlap removal after the voids go",
+                                   fill=False)
+    structure_contacts: str = option("frictionless", v.choice("frictionless", "sticky"),
+                                     "structure contacts during the expansion: repulsive only, or bonded at first "
+                                     "touch", fill=False)
 
 
 def run_vem(sizes, pr: dict, seed, monitor=None):
     """VEM structure of the study's sizes (§2.2 of 003_873b69fc71c74cf6.txt)."""
     from .vem import vem
 
-    kw = {k: pr[k] for k in _VEM_KEYS if k in pr}
-    return vem(sizes, volume_fraction=pr["volume_fraction"], seed=seed, progress=False, **kw)
-
-
-def check_vem(pr: dict, path: str = "protocol") -> None:
-    """Cross-key checks of a resolved VEM table."""
-    from ..errors import InvalidInputError
-    from .vem import MAX_VOLUME_FRACTION
-
-    if pr["volume_fraction"] == "jammed" or pr["volume_fraction"] > MAX_VOLUME_FRACTION:
-        raise InvalidInputError(f"{path}.volume_fraction = {pr['volume_fraction']!r}: VEM reaches (0, "
-                                f"{MAX_VOLUME_FRACTION:g}]")
+    return vem(sizes, seed=seed, progress=False, **pr)
 
 
 #: Words of the VEM statistics in the report (``protocol.vem.<key>`` in summary.csv).
@@ -185,7 +192,7 @@ VEM_WORDS = {
 
 register("protocol", "vem", VEMOptions, run_vem, Outputs(meta=("vem",), labels=VEM_WORDS), label="VEM",
          doc="void expansion method (VEM), §2.2 of 003_873b69fc71c74cf6.txt: heterogeneous structures at Φ",
-         requires=("polypack.generate:vem",), check=check_vem,
+         requires=("polypack.generate:vem",),
          kernels=("polypack._kernels.cells", "polypack._kernels.edmd", "polypack._kernels.contacts",
                   "polypack._kernels.dem", "polypack._kernels.vem"))
 
@@ -200,33 +207,33 @@ class BrownianOptions:
     """
 
     volume_fraction: float = option(0.4, v.fraction_open, "volume fraction Φ in (0, 0.55] (seed 003: 0.4)")
-    surface_potential: float = option(0.015, v.number, "surface potential Ψ0, V (seed 003: 0, 0.012 ... 0.015)", unit="V")
-    radius: float = option(None, v.positive, "physical sphere radius a of the simulation, m (0.25 µm)", unit="m")
-    temperature: float = option(None, v.positive, "temperature, K", unit="K")
-    viscosity: float = option(None, v.positive, "solvent viscosity, Pa s", unit="Pa s")
+    surface_potential: float = option(0.015, v.number, "surface potential Ψ0 (seed 003: 0, 0.012 ... 0.015)", unit="V")
+    radius: float = option(None, v.positive, "physical sphere radius a of the simulation (0.25 µm)", unit="m")
+    temperature: float = option(None, v.positive, "temperature", unit="K")
+    viscosity: float = option(None, v.positive, "solvent viscosity", unit="Pa s")
     relative_permittivity: float = option(None, v.positive, "relative permittivity of the solvent")
-    hamaker: float = option(None, v.positive, "Hamaker constant, J", unit="J")
-    ionic_strength: float = option(None, v.positive, "ionic strength, mol/m³ (or give debye_length)", unit="mol/m³")
-    debye_length: float = option(None, v.positive, "Debye length 1/κ, m", unit="m")
-    minimum_separation: float = option(None, v.positive, "surface separation of the primary minimum, m", unit="m")
+    hamaker: float = option(None, v.positive, "Hamaker constant", unit="J")
+    ionic_strength: float = option(None, v.positive, "ionic strength (or give debye_length, not both)", unit="mol/m³")
+    debye_length: float = option(None, v.positive, "Debye length 1/κ", unit="m")
+    minimum_separation: float = option(None, v.positive, "surface separation of the primary minimum", unit="m")
     model: str = option(None, v.choice("auto", "hhf", "lsa"), "double-layer model (auto: HHF for κa >= 5, else LSA)")
-    time_step: float = option(None, v.positive, "time step, s (default: rms step 0.2 Debye lengths)", unit="s")
-    bond_width: float = option(None, v.positive, "capture separation and bond shell width, m (1 nm)", unit="m")
-    cutoff: float = option(None, v.positive, "centre-distance cutoff of the DLVO force, m (2.5 a)", unit="m")
+    time_step: float = option(None, v.positive, "time step (default: rms step 0.2 Debye lengths)", unit="s")
+    bond_width: float = option(None, v.positive, "capture separation and bond shell width (1 nm)", unit="m")
+    cutoff: float = option(None, v.positive, "centre-distance cutoff of the DLVO force (2.5 a)", unit="m")
     record_interval: float = option(None, v.positive, "simulated seconds between records (0.05 a²/D0)", unit="s")
     stable_window: float = option(None, v.positive, "seconds over which the structure must be stable (2 a²/D0)",
                                   unit="s")
     coordination_tolerance: float = option(None, v.positive, "relative change of coordination allowed over the window")
     cluster_tolerance: float = option(None, v.positive, "change of the largest-cluster fraction allowed over the window")
-    min_time: float = option(None, v.non_negative, "shortest simulated time, s (stable_window)", unit="s")
-    max_time: float = option(None, v.positive, "simulated-time budget, s (60 a²/D0)", unit="s")
+    min_time: float = option(None, v.non_negative, "shortest simulated time (stable_window)", unit="s")
+    max_time: float = option(None, v.positive, "simulated-time budget (60 a²/D0)", unit="s")
     max_steps: int = option(None, v.int_min(1), "step budget")
     bonds: str = option(None, v.choice("flexible", "rigid", "tangential"),
                         "bonded spheres roll freely (flexible, default), bonded clusters move as rigid bodies "
                         "(rigid), or bonds resist sliding and rolling elastically (tangential)")
-    sliding_stiffness: float = option(None, v.non_negative, "tangential bonds: sliding spring stiffness, N/m", unit="N/m")
-    rolling_stiffness: float = option(None, v.non_negative, "tangential bonds: rolling stiffness, J", unit="J")
-    rolling_moment: float = option(None, v.positive, "tangential bonds: critical rolling moment, N m", unit="N m")
+    sliding_stiffness: float = option(None, v.non_negative, "tangential bonds: sliding spring stiffness", unit="N/m")
+    rolling_stiffness: float = option(None, v.non_negative, "tangential bonds: rolling stiffness", unit="J")
+    rolling_moment: float = option(None, v.positive, "tangential bonds: critical rolling moment", unit="N m")
     hydrodynamics: str = option(None, v.choice("free", "lubrication"),
                                 "pair mobility: free draining (default, the seed's model) or with the Honig et al. "
                                 "(1971) lubrication correction of the relative normal motion of close pairs")

@@ -563,6 +563,24 @@ class BrownianSimulation:
         self._state[self._bd.S_VIRIAL_STEPS] = 0.0
 
 
+#: Options that only act with one value of another option: ``{option: (switch, value)}``.
+ONLY_WITH = {"sliding_stiffness": ("bonds", "tangential"), "rolling_stiffness": ("bonds", "tangential"),
+             "rolling_moment": ("bonds", "tangential"), "lubrication_range": ("hydrodynamics", "lubrication")}
+
+
+def check_used(options: dict, sep: str = "=", prefix: str = "") -> None:
+    """Raise if an option is given that the chosen model ignores (never silently dropped).
+
+    ``options`` holds the keywords of :func:`brownian` (unset ones ``None`` or absent);
+    ``bonds`` and ``hydrodynamics`` default to ``"flexible"`` and ``"free"``.
+    """
+    chosen = {"bonds": options.get("bonds") or "flexible", "hydrodynamics": options.get("hydrodynamics") or "free"}
+    for key, (switch, value) in ONLY_WITH.items():
+        if options.get(key) is not None and chosen[switch] != value:
+            raise InvalidInputError(f"{prefix}{key}{sep}{options[key]!r}: only used with {switch} = {value!r}, "
+                                    f"not with {switch} = {chosen[switch]!r}")
+
+
 def brownian_bonds(packing: Packing):
     """Bond arrays ``(i, j, shift)`` stored by :func:`brownian` in ``packing.meta["bonds"]``.
 
@@ -736,6 +754,9 @@ def brownian(
     n = _check_int("n", n, 16)
     if bonds not in BOND_MODELS:
         raise InvalidInputError(f"bonds={bonds!r}: must be one of {', '.join(map(repr, BOND_MODELS))}")
+    check_used(dict(bonds=bonds, hydrodynamics=hydrodynamics, sliding_stiffness=sliding_stiffness,
+                    rolling_stiffness=rolling_stiffness, rolling_moment=rolling_moment,
+                    lubrication_range=lubrication_range))
     phi = float(volume_fraction)
     if not (0.0 < phi <= 0.55):
         raise InvalidInputError(f"volume_fraction={volume_fraction!r}: must be in (0, 0.55]")

@@ -192,7 +192,8 @@ def dlvo_parameters(
     ionic_strength : float, optional
         1:1 electrolyte concentration in mol/m³ (= mmol/L); default 0.9877.
     debye_length : float, optional
-        ``1/κ`` in metres; overrides ``ionic_strength`` (which is then derived).
+        ``1/κ`` in metres, instead of ``ionic_strength`` (which is then derived); giving both
+        is an error.
     minimum_separation : float, optional
         Closest surface separation of the van der Waals term (m), default 0.4 nm.
     model : {"auto", "hhf", "lsa"}
@@ -211,7 +212,8 @@ def dlvo_parameters(
         raise InvalidInputError(f"surface_potential={surface_potential!r}: must be a finite number in volts")
     if abs(psi) > 1.0:
         raise InvalidInputError(
-            f"surface_potential={surface_potential!r} V: give volts (0.015 for 15 mV); |Ψ0| <= 1 V allowed"
+            f"surface_potential={surface_potential!r} V: |Ψ0| <= 1 V allowed; give volts (0.015 for 15 mV), the unit "
+            "of the API, the study file and the CLI alike"
         )
     a = _positive("radius", d["radius"] if radius is None else radius)
     T = _positive("temperature", d["temperature"] if temperature is None else temperature)
@@ -223,6 +225,9 @@ def dlvo_parameters(
                    else minimum_separation, allow_zero=True)
     if h0 >= a:
         raise InvalidInputError(f"minimum_separation={h0!r} m must be smaller than the radius {a!r} m")
+    if debye_length is not None and ionic_strength is not None:
+        raise InvalidInputError(f"ionic_strength={ionic_strength!r}, debye_length={debye_length!r}: give one of "
+                                "them (the Debye length follows from the ionic strength)")
     if debye_length is not None:
         lam = _positive("debye_length", debye_length)
         eps = er * VACUUM_PERMITTIVITY

@@ -28,18 +28,7 @@ import numpy as np
 
 from ..errors import InvalidInputError
 
-__all__ = ["run_brownian", "run_deposit", "check_brownian", "preflight_brownian", "preflight_deposit",
-           "BROWNIAN_KEYS"]
-
-#: ``[protocol]`` keys passed to :func:`polypack.brownian` as keyword arguments.
-BROWNIAN_KEYS = ("radius", "temperature", "viscosity", "relative_permittivity", "hamaker", "ionic_strength",
-                 "debye_length", "minimum_separation", "model", "time_step", "bond_width", "cutoff",
-                 "record_interval", "stable_window", "coordination_tolerance", "cluster_tolerance", "min_time",
-                 "max_time", "max_steps", "bonds", "sliding_stiffness", "rolling_stiffness", "rolling_moment",
-                 "hydrodynamics", "lubrication_range")
-
-_PHYSICAL = ("radius", "temperature", "viscosity", "relative_permittivity", "hamaker", "ionic_strength",
-             "debye_length", "minimum_separation", "model")
+__all__ = ["run_brownian", "run_deposit", "check_brownian", "preflight_brownian", "preflight_deposit"]
 
 
 def _equal_radius(radii, path="protocol"):
@@ -59,7 +48,13 @@ def check_brownian(pr: dict, path: str = "protocol") -> None:
 
     if not (0.0 < pr["volume_fraction"] <= 0.55):
         raise InvalidInputError(f"{path}.volume_fraction = {pr['volume_fraction']!r}: brownian needs (0, 0.55]")
-    kw = {k: pr[k] for k in _PHYSICAL if k in pr}
+    from .brownian import check_used
+
+    check_used(pr, sep=" = ", prefix=f"{path}.")
+    import inspect
+
+    physical = inspect.signature(dlvo_parameters).parameters  # the DLVO keys of the table
+    kw = {k: pr[k] for k in physical if k in pr and k != "surface_potential"}
     try:
         dlvo_parameters(pr["surface_potential"], **kw)
     except InvalidInputError as exc:
@@ -77,9 +72,8 @@ def run_brownian(sizes, pr: dict, seed, monitor=None):
     from .brownian import brownian
 
     r_study = _equal_radius(sizes.radii)
-    kw = {k: pr[k] for k in BROWNIAN_KEYS if k in pr}
-    gel = brownian(int(np.asarray(sizes.radii).size), volume_fraction=pr["volume_fraction"],
-                   surface_potential=pr["surface_potential"], seed=seed, progress=False, **kw)
+    # every field of BrownianOptions is a keyword of pp.brownian (one declaration, no key list)
+    gel = brownian(int(np.asarray(sizes.radii).size), seed=seed, progress=False, **pr)
     a = float(gel.radii[0])
     s = r_study / a
     meta = dict(gel.meta)
@@ -111,5 +105,4 @@ def run_deposit(sizes, pr: dict, seed, monitor=None):
     """
     from .deposit import deposit
 
-    kw = {k: pr[k] for k in ("width", "boundary", "order", "tolerance", "floor_rule", "rule") if k in pr}
-    return deposit(sizes, seed=seed, progress=False, **kw)
+    return deposit(sizes, seed=seed, progress=False, **pr)  # the fields of DepositOptions are its keywords

@@ -86,9 +86,12 @@ import warnings
 
 import numpy as np
 
+from .. import _validate as _v
+from .. import registry as _registry
 from .._util import as_seed_sequence, progress_bar, seed_record
 from ..errors import InfeasibleError, InvalidInputError, OverlapError
 from ..packing import Packing
+from ._capabilities import VEM_MAX_VOLUME_FRACTION, VEMOptions
 
 __all__ = ["vem", "OVERLAP_TOLERANCE", "MAX_VOLUME_FRACTION", "VEM_DEFAULTS", "STRUCTURE_CONTACTS"]
 
@@ -98,7 +101,7 @@ OVERLAP_TOLERANCE = 1e-9
 #: Largest structure volume fraction accepted: the voids must still find room to expand
 #: before the assembly jams slightly below random close packing (Schenker et al. 2009
 #: generate 0.4 ... 0.6).
-MAX_VOLUME_FRACTION = 0.6
+MAX_VOLUME_FRACTION = VEM_MAX_VOLUME_FRACTION
 #: Smallest number of structure spheres.
 MIN_SPHERES = 32
 #: A stage's relaxation also ends when the summed relative overlap of all contacts per
@@ -110,48 +113,17 @@ UNLOADED = 1e-5
 #: touches is bonded for good, the bond carrying tension and shear).
 STRUCTURE_CONTACTS = ("frictionless", "sticky")
 
-VEM_DEFAULTS = dict(
-    growth_factor=1.02,
-    initial_void_radius=0.1,
-    normal_stiffness=100.0,
-    shear_stiffness=10.0,
-    void_normal_stiffness=100.0,
-    void_shear_stiffness=0.01,
-    friction=0.0,
-    damping=0.9,
-    ratio_tolerance=0.01,
-    jam_overlap=1e-3,
-    check_every=50,
-    stage_steps=3000,
-    max_stages=400,
-)
-
-
-def _number(name, value, lo=None, lo_open=True, hi=None):
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise InvalidInputError(f"{name}={value!r}: must be a number") from None
-    if isinstance(value, bool) or not math.isfinite(v):
-        raise InvalidInputError(f"{name}={value!r}: must be a finite number")
-    if lo is not None and (v <= lo if lo_open else v < lo):
-        raise InvalidInputError(f"{name}={value!r}: must be {'>' if lo_open else '>='} {lo:g}")
-    if hi is not None and v > hi:
-        raise InvalidInputError(f"{name}={value!r}: must be <= {hi:g}")
-    return v
-
-
-def _integer(name, value, lo):
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < lo:
-        raise InvalidInputError(f"{name}={value!r}: must be an integer >= {lo}")
-    return int(value)
+#: Defaults of :func:`vem`: those declared by the options dataclass
+#: :class:`polypack.generate._capabilities.VEMOptions` (the one declaration of the API, the
+#: study's ``[protocol] kind = "vem"`` and ``polypack vem``).
+VEM_DEFAULTS = _registry.defaults(VEMOptions)
 
 
 def _structure_radii(n, radius):
     """Structure radii and species from ``n`` (int, SizeSet, array of radii)."""
     if isinstance(n, (int, np.integer)) and not isinstance(n, bool):
-        n = _integer("n", n, MIN_SPHERES)
-        r = _number("radius", radius, 0.0)
+        n = _v.check("n", n, _v.int_min(MIN_SPHERES))
+        r = _v.check("radius", radius, _v.positive)
         return np.full(n, r), np.zeros(n, np.int64)
     if hasattr(n, "radii"):
         radii = np.asarray(n.radii, dtype=np.float64)
@@ -408,8 +380,8 @@ def _initial_voids(n_void, struct_pos, struct_radii, box, rv0, rng):
 
 def vem(
     n,
-    volume_fraction=0.4,
-    void_ratio=1.0,
+    volume_fraction=VEM_DEFAULTS["volume_fraction"],
+    void_ratio=VEM_DEFAULTS["void_ratio"],
     *,
     seed=None,
     radius=1.0,
@@ -426,8 +398,8 @@ def vem(
     check_every=VEM_DEFAULTS["check_every"],
     stage_steps=VEM_DEFAULTS["stage_steps"],
     max_stages=VEM_DEFAULTS["max_stages"],
-    final_relaxation="project",
-    structure_contacts="frictionless",
+    final_relaxation=VEM_DEFAULTS["final_relaxation"],
+    structure_contacts=VEM_DEFAULTS["structure_contacts"],
     progress=None,
 ) -> Packing:
     """Heterogeneous pack by the void expansion method (VEM).
@@ -518,35 +490,22 @@ def vem(
 
     radii, species = _structure_radii(n, radius)
     ns = radii.size
-    phi = _number("volume_fraction", volume_fraction, 0.0)
-    if phi > MAX_VOLUME_FRACTION:
-        raise InvalidInputError(
-            f"volume_fraction={volume_fraction!r}: VEM reaches (0, {MAX_VOLUME_FRACTION:g}] (the voids need room "
-            "to expand below random close packing)")
-    vr = _number("void_ratio", void_ratio, 0.0)
+    # one declaration: every option is checked by its field of VEMOptions (as in a study and the CLI)
+    o = _registry.check_call(VEMOptions, dict(
+        volume_fraction=volume_fraction, void_ratio=void_ratio, growth_factor=growth_factor,
+        initial_void_radius=initial_void_radius, normal_stiffness=normal_stiffness, shear_stiffness=shear_stiffness,
+        void_normal_stiffness=void_normal_stiffness, void_shear_stiffness=void_shear_stiffness, friction=friction,
+        damping=damping, ratio_tolerance=ratio_tolerance, jam_overlap=jam_overlap, check_every=check_every,
+        stage_steps=stage_steps, max_stages=max_stages, final_relaxation=final_relaxation,
+        structure_contacts=structure_contacts))
+    phi, vr = o["volume_fraction"], o["void_ratio"]
     n_void = int(round(vr * ns))
     if n_void < 1:
         raise InvalidInputError(f"void_ratio={void_ratio!r}: gives {n_void} voids for N={ns}; need at least 1")
-    gf = _number("growth_factor", growth_factor, 1.0, hi=1.5)
-    rv0 = _number("initial_void_radius", initial_void_radius, 0.0, hi=0.5)
-    kn = _number("normal_stiffness", normal_stiffness, 0.0)
-    ks = _number("shear_stiffness", shear_stiffness, 0.0, lo_open=False)
-    knv = _number("void_normal_stiffness", void_normal_stiffness, 0.0)
-    ksv = _number("void_shear_stiffness", void_shear_stiffness, 0.0, lo_open=False)
-    mu = _number("friction", friction, 0.0, lo_open=False)
-    alpha = _number("damping", damping, 0.0, lo_open=False)
-    if alpha >= 1.0:
-        raise InvalidInputError(f"damping={damping!r}: must be in [0, 1)")
-    tol = _number("ratio_tolerance", ratio_tolerance, 0.0)
-    jam = _number("jam_overlap", jam_overlap, 0.0)
-    check_every = _integer("check_every", check_every, 1)
-    stage_steps = _integer("stage_steps", stage_steps, 1)
-    max_stages = _integer("max_stages", max_stages, 1)
-    if final_relaxation not in ("project", "dynamics"):
-        raise InvalidInputError(f"final_relaxation={final_relaxation!r}: allowed are 'project' and 'dynamics'")
-    if structure_contacts not in STRUCTURE_CONTACTS:
-        raise InvalidInputError(f"structure_contacts={structure_contacts!r}: allowed are "
-                                + ", ".join(repr(x) for x in STRUCTURE_CONTACTS))
+    gf, rv0, kn, ks = o["growth_factor"], o["initial_void_radius"], o["normal_stiffness"], o["shear_stiffness"]
+    knv, ksv, mu, alpha = o["void_normal_stiffness"], o["void_shear_stiffness"], o["friction"], o["damping"]
+    tol, jam = o["ratio_tolerance"], o["jam_overlap"]
+    check_every, stage_steps, max_stages = o["check_every"], o["stage_steps"], o["max_stages"]
 
     ss = as_seed_sequence(seed)
     s_fluid, s_void = ss.spawn(2)
