@@ -67,6 +67,11 @@ BASE = {"moduli": {"matrix": [1.0, 0.3], "inclusions": [[10.0, 0.2]]}, "crm": {"
 CONTEXT = {
     ("elastic", "epsilon"): {"bonds": "distance"},  # "auto" takes the protocol's bonds of this pack
     ("shear", "epsilon"): {"bonds": "distance"},
+    # issue 30: an option the chosen model ignores is an error, so these need their model
+    ("brownian", "sliding_stiffness"): {"bonds": "tangential"},
+    ("brownian", "rolling_stiffness"): {"bonds": "tangential"},
+    ("brownian", "rolling_moment"): {"bonds": "tangential"},
+    ("brownian", "lubrication_range"): {"hydrodynamics": "lubrication"},
 }
 
 # values for options whose check alone does not say what to try

@@ -586,10 +586,13 @@ MUTANTS += [
            'for k in ("normal_strength", "reference") if k in opts}',
            T_WALK + T_ST, "option dropped (shear strength never reaches the network builder)"),
     Mutant("r3-stage-vem-key", G + "_capabilities.py",
-           '"jam_overlap", "final_relaxation", "structure_contacts")', '"jam_overlap", "final_relaxation")',
+           "return vem(sizes, seed=seed, progress=False, **pr)",
+           "return vem(sizes, seed=seed, progress=False, **{k: x for k, x in pr.items() if k != \"structure_contacts\"})",
            T_WALK + ("tests/test_pipeline_options.py",), "option dropped ([protocol] structure_contacts of vem)"),
     Mutant("r3-stage-brownian-key", G + "protocols.py",
-           '"hydrodynamics", "lubrication_range")', '"hydrodynamics")',
+           "gel = brownian(int(np.asarray(sizes.radii).size), seed=seed, progress=False, **pr)",
+           "gel = brownian(int(np.asarray(sizes.radii).size), seed=seed, progress=False, "
+           "**{k: x for k, x in pr.items() if k != \"lubrication_range\"})",
            T_WALK + ("tests/test_stages_protocols.py",), "option dropped ([protocol] lubrication_range)"),
     # DEM rotations
     Mutant("r3-contact-twist-mean", K + "contacts.py",
