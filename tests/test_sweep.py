@@ -30,12 +30,29 @@ def _study(n=64, values=(0.5, 2.0), **sweep):
     ({"report": "table"}, "sweep.report"),
     ({"bogus": 1}, "sweep.bogus: unknown key"),
     ({"values": [-1.0]}, "sweep value -1.0: protocol.void_ratio"),
+    ({"values": [1, 1.0]}, "1 and 1.0 share the folder name void_ratio=1"),
 ])
 def test_bad_sweeps_are_one_line_errors(sweep, match):
     with pytest.raises(InvalidInputError, match=match) as info:
         sweep_studies(_study(**{k: v for k, v in sweep.items() if k != "values"},
                              **({"values": sweep["values"]} if "values" in sweep else {})))
     assert "\n" not in str(info.value)
+
+
+def test_folder_names_are_exact():
+    """Issue 31: 0.25 and 0.2500000000000001 mapped to one folder (6 significant digits) and
+    --force silently replaced the first value's results; now each value has its own folder,
+    short where the short form reads back exactly."""
+    from polypack.ensemble.sweep import _label
+
+    vals = [0.25, 0.2500000000000001, 1.0, 2, 1e-7, 0.1 + 0.2]
+    labels = [_label("protocol.void_ratio", v) for v in vals]
+    assert labels == ["void_ratio=0.25", "void_ratio=0.2500000000000001", "void_ratio=1", "void_ratio=2",
+                      "void_ratio=1e-07", "void_ratio=0.30000000000000004"]
+    for v, lab in zip(vals, labels):
+        assert float(lab.split("=")[1]) == v
+    sw, studies, _ = sweep_studies(_study(values=(0.25, 0.2500000000000001)))
+    assert len(studies) == 2
 
 
 def test_every_value_is_an_ordinary_study():

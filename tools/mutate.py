@@ -659,6 +659,10 @@ MUTANTS += [
            "        return float(v) if math.isfinite(v) else None\n",
            "        return float(v)\n",
            T_ST, "dropped check (NaN written to a record)"),
+    Mutant("m31-pores-survival-all-points", A + "pores.py",
+           '        nv = max(sum(f["void"].size for f in self._frames), 1)\n        return np.sqrt(s * (1 - s) / nv)\n',
+           '        nv = max(sum(f["n"] for f in self._frames), 1)\n        return np.sqrt(s * (1 - s) / nv)\n',
+           (T_EB, "tests/test_analysis_pores.py"), "wrong count (all test points for the void points)"),
 ]
 
 

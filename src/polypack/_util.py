@@ -254,6 +254,12 @@ _FILE_KINDS = {
 }
 
 
+def file_kind(path) -> str:
+    """The kind of file ``path`` names by its extension (:data:`_FILE_KINDS`)."""
+    ext = Path(path).suffix.lower()
+    return _FILE_KINDS.get(ext, f"a {ext or 'extension-less'} file")
+
+
 def check_new_output(path, kind, *, inputs=(), force=False, option="-o"):
     """Check an output path before anything is computed; return it as a Path.
 
@@ -268,10 +274,24 @@ def check_new_output(path, kind, *, inputs=(), force=False, option="-o"):
         if src is not None and _same_file(path, src):
             raise InvalidInputError(f"{option} {shown}: is the input file {src}; choose another output path")
     if os.path.isfile(path) and not force:
-        ext = Path(path).suffix.lower()
-        have = _FILE_KINDS.get(ext, f"a {ext or 'extension-less'} file")
+        have = file_kind(path)
         if have != kind:
             raise InvalidInputError(f"{option} {shown}: an existing {have} file would be replaced by {kind}; "
                                     "choose another path or pass --force")
     output_path(path)
     return Path(path)
+
+
+#: Figure formats the CLI writes (by extension).
+PLOT_FORMATS = ("png", "pdf", "svg")
+
+
+def check_plot_path(path, option="--plot") -> str:
+    """The figure format of ``path`` (its extension), checked before anything is computed:
+    one-line InvalidInputError for another extension, then :func:`output_path`."""
+    fmt = Path(path).suffix.lower().lstrip(".")
+    if fmt not in PLOT_FORMATS:
+        raise InvalidInputError(f"{option} {path}: cannot tell a figure format from {Path(path).suffix or '(none)'!r}; "
+                                f"allowed extensions: {', '.join('.' + f for f in PLOT_FORMATS)}")
+    output_path(path)
+    return fmt

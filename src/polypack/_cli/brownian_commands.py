@@ -28,18 +28,19 @@ def register(app: typer.Typer) -> None:
         import warnings
 
         from .. import io
-        from .._util import atomic_path, output_path
+        from .._util import atomic_paths, output_path
         from ..generate.brownian import brownian
 
-        io.format_for(str(output))
-        output_path(output)  # checked before the run
+        fmt = io.format_for(str(output))
+        bonds_path = Path(str(output) + ".bonds.json")
+        output_path(output)  # both checked before the run
+        output_path(bonds_path)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # reported in the summary line instead
             pk = brownian(n, seed=seed, progress=progress, **options)  # the flags are BrownianOptions' fields
-        io.write(str(output), pk)
-        bonds_path = Path(str(output) + ".bonds.json")
-        with atomic_path(bonds_path) as tmp:
-            Path(tmp).write_text(json.dumps(pk.meta["bonds"]))
+        with atomic_paths(output, bonds_path) as (tmp_pack, tmp_bonds):  # the pair together or not at all
+            io.write(tmp_pack, pk, fmt)
+            Path(tmp_bonds).write_text(json.dumps(pk.meta["bonds"]))
         b = pk.meta["brownian"]
         typer.echo(
             f"wrote {output}: {pk.n} spheres, Ψ0 = {options['surface_potential']:g} V, {b['bonds']} bonds, "
@@ -63,8 +64,10 @@ def register(app: typer.Typer) -> None:
         model: str = typer.Option("auto", "--model", help="Double layer: auto, hhf or lsa."),
     ):
         """Barrier and secondary minimum of the DLVO potential (kBT) for each Ψ0."""
+        from .._util import check_plot_path
         from ..generate.dlvo import dlvo_extrema, dlvo_parameters, plot_dlvo
 
+        plot_fmt = check_plot_path(plot) if plot is not None else None
         psis = list(surface_potential or [0.0, 0.012, 0.013, 0.014, 0.015])
         kw = dict(hamaker=hamaker, ionic_strength=ionic_strength, debye_length=debye_length, model=model)
         p = dlvo_parameters(psis[0], **kw)
@@ -88,5 +91,5 @@ def register(app: typer.Typer) -> None:
 
             ax = plot_dlvo(psis, **kw)
             with atomic_path(plot) as tmp:
-                ax.figure.savefig(tmp, format=plot.suffix.lstrip(".") or "png", dpi=120)
+                ax.figure.savefig(tmp, format=plot_fmt, dpi=120)
             typer.echo(f"wrote {plot}")

@@ -43,12 +43,27 @@ def register(app: typer.Typer) -> None:
         """Deposit disks or spheres one by one; print the bulk statistics."""
         import polypack as pp
 
+        from .._util import output_path
+
+        if output is not None:  # checked before the deposit is computed
+            pp.io.format_for(output)
+            output_path(output)
         if sizes is not None:
             if not sizes.exists():
                 raise InvalidInputError(f"size-set file {sizes} does not exist")
-            from .pack_commands import _read_radius_csv
+            if sizes.suffix.lower() in (".gsd", ".xyz", ".extxyz", ".data", ".lmp", ".vtp", ".vtm"):
+                raise InvalidInputError(f"{sizes}: a pack file; deposit takes a size-set CSV (radius[,species] "
+                                        "columns, e.g. from `polypack psd`), or --n / --span")
+            from ..psd.sizeset import SizeSet
 
-            radii, species = _read_radius_csv(sizes)
+            loaded = SizeSet.load(sizes)
+            if SizeSet._report_path(sizes).exists() and loaded.dim != dim:
+                raise InvalidInputError(
+                    f"{sizes}: a size set for dim={loaded.dim} (its report {SizeSet._report_path(sizes).name}: class "
+                    f"counts weighted by {'sphere volume' if loaded.dim == 3 else 'disk area'}); this deposit is "
+                    f"--dim {dim}: use --dim {loaded.dim}, --span (the CB model), or a set made with "
+                    f"`polypack psd --dim {dim}`")
+            radii, species = np.asarray(loaded.radii, float), np.asarray(loaded.species, np.int64)
             src = pp.psd.SizeSet(radii, species, dim=dim)
         elif span is not None:
             if not (0.0 <= span < 1.0):
@@ -69,8 +84,10 @@ def register(app: typer.Typer) -> None:
             raise InvalidInputError("give a size-set file, --span (CB model) or --n (equal disks)")
         if dim not in (2, 3):
             raise InvalidInputError(f"--dim {dim}: allowed are 2 and 3")
-        if plot is not None and plot.suffix.lower() not in (".png", ".pdf", ".svg"):
-            raise InvalidInputError(f"--plot {plot}: the file must end in .png, .pdf or .svg")
+        if plot is not None:
+            from .._util import check_plot_path
+
+            check_plot_path(plot)
         pk = pp.deposit(src, width=width, boundary=boundary, order=order, seed=seed, progress=progress,
                         floor_rule=floor_rule if dim == 2 else None, rule=rule)
         rule_word = f"floor_rule={floor_rule}" if dim == 2 else f"rule={pk.meta.get('rule')}"

@@ -9,11 +9,13 @@ from typing import Optional
 import typer
 
 
-def elastic_report(pk, epsilon=0.01, kn=100.0, ks=10.0, radius=0.25e-6, rotations=True, solver="auto"):
-    """Network and tensor of ``pk`` as plain JSON-able data (moduli in Pa and MPa if ``radius``)."""
+def elastic_report(pk, epsilon=0.01, kn=100.0, ks=10.0, radius=0.25e-6, rotations=True, solver="auto", net=None):
+    """Network and tensor of ``pk`` as plain JSON-able data (moduli in Pa and MPa if ``radius``);
+    ``net``: the network to use (default: the epsilon rule on ``pk``)."""
     from ..mechanics import BondNetwork, elastic_tensor
 
-    net = BondNetwork.from_packing(pk, epsilon=epsilon, normal_stiffness=kn, shear_stiffness=ks)
+    if net is None:
+        net = BondNetwork.from_packing(pk, epsilon=epsilon, normal_stiffness=kn, shear_stiffness=ks)
     et = elastic_tensor(net, rotations=rotations, radius=radius, solver=solver)
     st = net.statistics()
     st.pop("bond_angle_histogram")
@@ -43,23 +45,32 @@ def register(app: typer.Typer) -> None:
         solver: str = typer.Option("auto", help="auto, direct (exact floppy-mode count), amg or cg."),
         json_out: Optional[Path] = typer.Option(None, "--json", help="Write the results as JSON here."),
         fmt: Optional[str] = typer.Option(None, "--format", help="Override the file format."),
+        bonds: str = typer.Option("auto", "--bonds", help="auto (bonds stored in the file or made by its protocol, "
+                                  "else the epsilon rule), file (stored only) or distance (always epsilon)."),
+        force: bool = typer.Option(False, "--force", help="Replace an existing --json file of another kind."),
     ):
         """Exact linear elastic tensor of the bonded network (static limit of seed 003's shear test)."""
         import numpy as np
 
-        from .. import io
-        from .._util import atomic_open
+        from .._util import atomic_open, check_new_output
+        from ._network import check_radius, network_from_file
 
-        pk = io.read(file, fmt)
-        res = elastic_report(pk, epsilon, kn, ks, radius if radius > 0 else None, rotations, solver)
-        res = {"file": str(file), **res}
+        if json_out is not None:  # checked before the computation
+            check_new_output(json_out, "JSON", inputs=(file,), force=force, option="--json")
+        r = check_radius(radius)
+        pk, net, bonds_note, units_note = network_from_file(file, bonds=bonds, epsilon=epsilon, radius=radius,
+                                                            fmt=fmt, rescale=False, normal_stiffness=kn,
+                                                            shear_stiffness=ks)
+        typer.echo(f"{file}: {units_note}; {bonds_note}")
+        res = elastic_report(pk, epsilon, kn, ks, r, rotations, solver, net=net)
+        res = {"file": str(file), "bonds_source": bonds_note, "length_scale": units_note, **res}
         if json_out is not None:
             with atomic_open(json_out, "w") as fh:
                 json.dump(res, fh, indent=1)
         e, nw = res["elastic"], res["network"]
         si = e["units"] == "Pa"
         unit, f = ("MPa", 1e-6) if si else ("(stiffness/length)", 1.0)
-        typer.echo(f"{file}: N={pk.n}, volume fraction {pk.volume_fraction:.4f}, bonds {nw['n_bonds']}, "
+        typer.echo(f"  N={pk.n}, volume fraction {pk.volume_fraction:.4f}, bonds {nw['n_bonds']}, "
                    f"Z={nw['coordination']:.3f}, rattlers {nw['n_rattlers']}, floppy modes {e['floppy_modes']}")
         if not e["rigid"]:
             typer.echo(f"  FLOPPY: G = 0 ({e['floppy_reason']})")

@@ -150,12 +150,6 @@ def format_summary(s: dict) -> str:
     return "\n".join(lines)
 
 
-def _kind_of(path):
-    from .._util import _FILE_KINDS
-
-    return _FILE_KINDS.get(Path(path).suffix.lower(), "file")
-
-
 def register(app: typer.Typer) -> None:
     """Add ``info`` and ``convert`` to the polypack CLI."""
 
@@ -194,7 +188,7 @@ def register(app: typer.Typer) -> None:
         Positions, radii, box, species and provenance are carried over exactly, and so are the bonds and the bond and particle fields of a network file (GSD, LAMMPS data, VTK .vtm) to a format that holds them; a target that cannot hold them is refused unless --drop-bonds. The output is written atomically, never onto SOURCE, so an existing TARGET is replaced only on success.
         """  # noqa: E501
         from .. import io
-        from .._util import check_new_output, output_path
+        from .._util import check_new_output, file_kind, output_path
         from ..errors import InvalidInputError
         from ..io import bonds as iob
 
@@ -202,7 +196,7 @@ def register(app: typer.Typer) -> None:
         t_fmt = "vtm" if (to_fmt or "").lower().lstrip(".") == "vtm" or (not to_fmt and t_ext == ".vtm") else None
         if t_fmt is None:
             t_fmt = io.format_for(target, to_fmt)
-        check_new_output(target, _kind_of(target), inputs=(source,), option="TARGET")
+        check_new_output(target, file_kind(target), inputs=(source,), option="TARGET")
         output_path(target)
         pk, info, net = iob.read_maybe_network(source, from_fmt, frame)
         which = f" from frame {info['frame']} of {info['frames']}" if info.get("frames", 1) > 1 else ""

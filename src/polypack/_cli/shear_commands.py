@@ -46,21 +46,36 @@ def register(app: typer.Typer) -> None:
         damping: float = typer.Option(0.9, "--damping", help="Local damping coefficient alpha."),
         density: float = typer.Option(3690.0, "--density", help="Particle density before mass scaling."),
         json_out: Optional[Path] = typer.Option(None, "--json", help="Write the result (with time series) as JSON."),
-        plot: Optional[Path] = typer.Option(None, "--plot", help="Write the stress-strain plot (PNG) here."),
+        plot: Optional[Path] = typer.Option(None, "--plot", help="Write the stress-strain plot here (.png, .pdf, .svg)."),
         trajectory: Optional[Path] = typer.Option(
             None, "--trajectory", help="Write GSD frames with contact forces (20 per cycle) here."
         ),
         progress: Optional[bool] = typer.Option(None, "--progress/--no-progress", help="Progress bar."),
+        radius: float = typer.Option(
+            0.25e-6, "--radius", help="Mean particle radius in metres the lengths are rescaled to (seed 003: "
+            "0.25 µm; stresses in Pa); 0 keeps the file's length unit."),
+        bonds: str = typer.Option("auto", "--bonds", help="auto (bonds stored in the file or made by its protocol, "
+                                  "else the epsilon rule), file (stored only) or distance (always epsilon)."),
+        force: bool = typer.Option(False, "--force", help="Replace existing output files of another kind."),
     ):
         """Storage and loss moduli G', G'' of the bonded pack by oscillatory shear (DEM)."""
-        from .. import io
-        from .._util import atomic_open, atomic_path
-        from ..mechanics import BondNetwork, ShearInterrupted, oscillatory_shear
+        from .._util import atomic_open, atomic_path, check_new_output, check_plot_path, file_kind
+        from ..mechanics import ShearInterrupted, oscillatory_shear
+        from ._network import network_from_file
 
-        pk = io.read(source)
-        net = BondNetwork.from_packing(pk, epsilon=epsilon, normal_stiffness=normal_stiffness,
-                                       shear_stiffness=shear_stiffness, normal_strength=normal_strength,
-                                       shear_strength=shear_strength, reference=reference)
+        # every output path is checked before the computation
+        if json_out is not None:
+            check_new_output(json_out, "JSON", inputs=(source,), force=force, option="--json")
+        if plot is not None:
+            check_new_output(plot, file_kind(plot), inputs=(source,), force=force, option="--plot")
+            check_plot_path(plot)
+        if trajectory is not None:
+            check_new_output(trajectory, "GSD", inputs=(source,), force=force, option="--trajectory")
+        pk, net, bonds_note, units_note = network_from_file(
+            source, bonds=bonds, epsilon=epsilon, radius=radius, normal_stiffness=normal_stiffness,
+            shear_stiffness=shear_stiffness, normal_strength=normal_strength, shear_strength=shear_strength,
+            reference=reference)
+        typer.echo(f"{source}: {units_note}; {bonds_note}")
         interrupted = False
         try:
             res = oscillatory_shear(net, frequency=frequency, amplitude=amplitude, cycles=cycles,
@@ -70,7 +85,7 @@ def register(app: typer.Typer) -> None:
         except ShearInterrupted as exc:
             res = exc.result
             interrupted = True
-        typer.echo(f"{source}: {pk.n} spheres, {net.n_bonds} bonds (coordination {net.coordination:.2f}), {boundary}")
+        typer.echo(f"  {pk.n} spheres, {net.n_bonds} bonds (coordination {net.coordination:.2f}), {boundary}")
         if res.status == "floppy":
             typer.echo(f"  floppy: G' = 0 ({res.floppy_reason}); no DEM run")
         else:
@@ -110,6 +125,6 @@ def register(app: typer.Typer) -> None:
             res.plot(ax=ax)
             fig.tight_layout()
             with atomic_path(plot) as tmp:
-                fig.savefig(tmp, format="png", dpi=120)
+                fig.savefig(tmp, format=check_plot_path(plot), dpi=120)
             plt.close(fig)
             typer.echo(f"  wrote {plot}")

@@ -96,6 +96,14 @@ def _check_sweep(sw) -> dict:
         raise InvalidInputError(f"sweep.values = {vals!r}: give a non-empty list")
     if len(set(map(repr, vals))) != len(vals):
         raise InvalidInputError(f"sweep.values = {vals!r}: values must differ")
+    seen = {}
+    for v in vals:
+        text = _value_text(v)
+        if text in seen or "/" in text or text in (".", ".."):
+            what = (f"{seen[text]!r} and {v!r} share the folder name {par.split('.')[-1]}={text}" if text in seen
+                    else f"{v!r} cannot name a folder")
+            raise InvalidInputError(f"sweep.values: {what}; give distinct values")
+        seen[text] = v
     rep = sw.get("report")
     if rep not in (None, "heterogeneity"):
         raise InvalidInputError(f"sweep.report = {rep!r}: allowed: \"heterogeneity\"")
@@ -126,8 +134,22 @@ def _set_path(data, path, value):
     d[keys[-1]] = value
 
 
+def _value_text(v) -> str:
+    """Exact text of a swept value for its folder name: ``:g`` when that reads back as the same
+    number (``0.25``, ``1``), else ``repr`` (``0.2500000000000001``: never rounded onto a
+    neighbour's folder, issue 31)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return str(v)
+    short = f"{v:g}"
+    try:
+        same = float(short) == v and type(v)(float(short)) == v
+    except (OverflowError, ValueError):
+        same = False
+    return short if same else repr(v)
+
+
 def _label(par, v):
-    return f"{par.split('.')[-1]}={v:g}" if isinstance(v, (int, float)) else f"{par.split('.')[-1]}={v}"
+    return f"{par.split('.')[-1]}={_value_text(v)}"
 
 
 def sweep_studies(path_or_data):

@@ -180,7 +180,18 @@ def _omega_max(net: _Net, density: float) -> float:
     _, _, n, li, lj = bond_geometry(net.pos, net.radii, np.diag(net.box), net.i, net.j, net.shift)
     K = stiffness_matrix(net.pos.shape[0], net.i, net.j, n, li, lj, net.kn, net.ks)
     mass, inertia = _masses(net.radii, density)
-    return highest_frequency(K, mass, inertia)
+    try:
+        w = highest_frequency(K, mass, inertia)
+    except Exception as exc:  # scipy's ArpackError (no common base class) on an overflowing spectrum
+        w, why = math.nan, f"{type(exc).__name__}"
+    else:
+        why = "not finite"
+    if not (math.isfinite(w) and w > 0):
+        raise InvalidInputError(
+            f"the highest vibration frequency of this network cannot be computed ({why}; normal_stiffness up to "
+            f"{float(np.max(net.kn)):.3g}, shear_stiffness up to {float(np.max(net.ks)):.3g}, density {density:.3g}): "
+            "stiffnesses and density must keep k/m within float64 range (seed 003: kn = 100 N/m, 3690 kg/m³)")
+    return w
 
 
 def critical_time_step(network, density: float = DEFAULTS["density"]) -> float:

@@ -182,6 +182,8 @@ class SizeSet:
             text = path.read_text()
         except OSError as exc:
             raise FormatError(f"cannot read size set {path}: {exc.strerror}") from None
+        except UnicodeDecodeError:
+            raise FormatError(f"{path}: not a text size-set file (a CSV with a radius or diameter column)") from None
         reader = csv.reader(_io.StringIO(text))
         rows = [row for row in reader if row and "".join(row).strip()]
         if not rows:
