@@ -58,10 +58,12 @@ SINKS = {
               ("polypack.mechanics.network", "BondNetwork.from_pairs", False),
               ("polypack.mechanics.dem", "oscillatory_shear", True)],
     "moduli": [("polypack.ensemble.moduli_stage", "moduli_of_pack", True)],
+    "homogenize": [("polypack.mechanics.fullfield", "homogenize", True)],
 }
 
 # tables every run of a stage needs (required options; shaking on, so that its options are used)
-BASE = {"moduli": {"matrix": [1.0, 0.3], "inclusions": [[10.0, 0.2]]}, "crm": {"global_shakes": 2}}
+BASE = {"moduli": {"matrix": [1.0, 0.3], "inclusions": [[10.0, 0.2]]}, "crm": {"global_shakes": 2},
+        "homogenize": {"matrix": [1.0, 0.3], "inclusions": [[10.0, 0.2]]}}
 
 # options that act only in a context: the other keys that make them count
 CONTEXT = {
@@ -84,6 +86,9 @@ OVERRIDES = {
     ("shear", "directions"): [[2, 0], [0, 1]],
     ("moduli", "matrix"): [2.0, 0.25],
     ("moduli", "inclusions"): [[20.0, 0.3]],
+    ("homogenize", "matrix"): [2.0, 0.25],
+    ("homogenize", "inclusions"): [[20.0, 0.3]],
+    ("homogenize", "materials"): ["glass/epoxy"],
     ("elastic", "bonds"): "distance",  # the pack carries protocol bonds: "auto" takes them
     ("brownian", "minimum_separation"): 0.3e-9,  # below the radius
     ("shear", "bonds"): "distance",
@@ -104,6 +109,9 @@ TRANSFORMED = {
     ("moduli", "inclusions"): "[E, nu] pairs become Phases",
     ("moduli", "three_point"): "passed as three_point",
     ("moduli", "mefm"): "passed as pair_estimate",
+    ("homogenize", "matrix"): "[E, nu] becomes a Phase",
+    ("homogenize", "inclusions"): "[E, nu] pairs become Phases",
+    ("homogenize", "materials"): "a named system becomes its matrix and inclusion Phases",
     ("crm", "shake_method"): "passed to shake as method",
     ("scrm", "shake_method"): "passed to scrm as method",
     ("windows", "window_radius"): "one estimator per radius",

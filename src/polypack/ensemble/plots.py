@@ -468,3 +468,100 @@ def modulus_vs_doh_figure(groups, *, y_label, title=""):
             ax.set_title(title)
         fig.tight_layout()
     return fig
+
+
+# --------------------------------------------------------------------------- full-field moduli (issue 34)
+def fullfield_moduli_groups(label, records):
+    """Per-realization points of one run for :func:`moduli_vs_c_figure`, or None.
+
+    Needs ``[analysis.moduli]`` and an ``[analysis.homogenize]`` entry of the same matrix and
+    inclusion phases in the records; returns ``{"label", "matrix", "inclusion", "c", "est": {name:
+    {"young": [...], "shear": [...]}}, "ff": {"young", "shear", "young_ext", "shear_ext", "shear_ext_err"}}``.
+    """
+    out = {"label": label, "c": [], "est": {}, "ff": {k: [] for k in ("young", "shear", "shear_ext", "shear_ext_err")}}
+    for r in records:
+        an = r.get("analysis", {})
+        mod, hom = an.get("moduli"), an.get("homogenize")
+        if not isinstance(mod, dict) or hom is None:
+            continue
+        homs = hom if isinstance(hom, list) else [hom]
+        m = mod.get("matrix", {})
+        inc = (mod.get("inclusions") or [{}])[0]
+        match = [h for h in homs if h.get("matrix", {}).get("young") == m.get("young")
+                 and (h.get("inclusions") or [{}])[0].get("young") == inc.get("young") and h.get("converged")]
+        if not match:
+            continue
+        h = match[0]
+        out["matrix"], out["inclusion"] = m, inc
+        out["c"].append(mod["volume_fraction"])
+        for e in ("mori_tanaka", "three_point_lower", "three_point_upper", "mefm", "hs_lower", "hs_upper"):
+            if e in mod:
+                d = out["est"].setdefault(e, {"young": [], "shear": []})
+                d["young"].append(mod[e]["young_ratio"])
+                d["shear"].append(mod[e]["shear_ratio"])
+        out["ff"]["young"].append(h["young_ratio"])
+        out["ff"]["shear"].append(h["shear_ratio"])
+        ext = (h.get("extrapolated") or {}).get("shear_ratio")
+        out["ff"]["shear_ext"].append(ext["value"] if ext else None)
+        out["ff"]["shear_ext_err"].append(ext["error"] if ext else None)
+    return out if out["c"] else None
+
+
+def moduli_vs_c_figure(groups, title=""):
+    """E*/E0 and μ*/μ0 against the inclusion fraction c (Figs. 8–9 of 000_2cedc098acbd866b.txt) with
+    the full-field points of :func:`polypack.mechanics.homogenize` beside MT, HS, the three-point
+    bounds and MEFM, one colour per run (e.g. CRM and SCRM packs apart).
+
+    ``groups``: dicts from :func:`fullfield_moduli_groups`; points are means over realizations with
+    ± 1.96 standard errors; open diamonds are the Richardson continuum estimates of μ*/μ0 with their
+    estimated discretization error.
+    """
+    import matplotlib.pyplot as plt
+
+    from ..mechanics import Phase, hashin_shtrikman, mori_tanaka
+
+    def ms(v):
+        v = np.asarray([x for x in v if x is not None], dtype=np.float64)
+        if v.size == 0:
+            return np.nan, 0.0
+        return float(v.mean()), float(1.96 * v.std(ddof=1) / np.sqrt(v.size)) if v.size > 1 else 0.0
+
+    g0 = groups[0]
+    m = Phase(g0["matrix"]["bulk"], g0["matrix"]["shear"])
+    f = Phase(g0["inclusion"]["bulk"], g0["inclusion"]["shear"])
+    cmax = max(max(g["c"]) for g in groups)
+    cs = np.linspace(0.0, min(0.74, cmax + 0.05), 60)
+    mt = [mori_tanaka(m, [f], [x]) for x in cs]
+    hs = [hashin_shtrikman([m, f], [1 - x, x])[1] for x in cs]
+    with paper_style():
+        fig, axes = plt.subplots(1, 2, figsize=(9.2, 3.8))
+        for ax, q, ref, lab in ((axes[0], "young", m.young, "E*/E0"), (axes[1], "shear", m.shear, "μ*/μ0")):
+            ax.plot(cs, [getattr(p, q) / ref for p in mt], "k-", lw=1, label="Mori–Tanaka (= HS lower)")
+            ax.plot(cs, [getattr(p, q) / ref for p in hs], "k:", lw=1, label="Hashin–Shtrikman upper")
+            for i, g in enumerate(groups):
+                col = f"C{i}"
+                c, _ = ms(g["c"])
+                if "three_point_lower" in g["est"]:
+                    lo, _ = ms(g["est"]["three_point_lower"][q])
+                    up, _ = ms(g["est"]["three_point_upper"][q])
+                    ax.plot([c, c], [lo, up], "-", color=col, lw=5, alpha=0.25,
+                            label=f"three-point bounds, {g['label']}")
+                if "mefm" in g["est"]:
+                    y, e = ms(g["est"]["mefm"][q])
+                    ax.errorbar(c - 0.004, y, yerr=e, fmt="s", ms=4, mfc="none", color=col, capsize=2,
+                                label=f"MEFM, {g['label']}")
+                y, e = ms(g["ff"][q])
+                ax.errorbar(c + 0.004, y, yerr=e, fmt="o", ms=4.5, color=col, capsize=2,
+                            label=f"full field (FFT), {g['label']}")
+                if q == "shear" and any(v is not None for v in g["ff"]["shear_ext"]):
+                    y, _ = ms(g["ff"]["shear_ext"])
+                    err, _ = ms(g["ff"]["shear_ext_err"])
+                    ax.errorbar(c + 0.008, y, yerr=err, fmt="D", ms=4, mfc="none", color=col, capsize=2,
+                                label=f"full field, Richardson estimate, {g['label']}")
+            ax.set_xlabel("inclusion volume fraction c (–)")
+            ax.set_ylabel(f"{lab} (–)")
+        axes[1].legend(fontsize=6, loc="upper left")
+        if title:
+            fig.suptitle(title)
+        fig.tight_layout()
+    return fig

@@ -138,3 +138,99 @@ register(
     requires=("polypack.mechanics:oscillatory_shear",), preflight="polypack.mechanics.stages:preflight_3d",
     kernels=("polypack._kernels.cells", "polypack._kernels.network", "polypack._kernels.contacts", "polypack._kernels.dem"),
 )
+
+
+# --------------------------------------------------------------------------- [analysis.homogenize] (issue 34)
+def _young_pair(x):
+    """``[E, nu]``: Young's modulus >= 0 and Poisson's ratio in (-1, 0.5)."""
+    x = v._split(x)
+    if not isinstance(x, (list, tuple)) or len(x) != 2 or any(isinstance(e, (list, tuple)) for e in x):
+        raise v.Bad("expected [E, nu] (Young's modulus, Poisson's ratio), e.g. [3.01e9, 0.394]")
+    e, nu = (v.number(float(t) if isinstance(t, str) else t) for t in x)
+    if not e >= 0 or e == float("inf"):
+        raise v.Bad(f"Young's modulus {e!r} must be finite and >= 0")
+    if not -1.0 < nu < 0.5:
+        raise v.Bad(f"Poisson's ratio {nu!r} must lie in (-1, 0.5) (a voxel solver needs a finite bulk modulus)")
+    return [e, nu]
+
+
+_young_pair.describe = "[E, nu] with E >= 0, -1 < nu < 0.5"
+
+
+def _young_pairs(x):
+    if isinstance(x, (list, tuple)) and x and all(isinstance(e, (list, tuple)) for e in x):
+        return [_young_pair(e) for e in x]
+    return [_young_pair(x)]
+
+
+_young_pairs.describe = "[E, nu] or an array of [E, nu], one per species"
+
+#: Named material systems of ``[analysis.homogenize] materials`` (matrix [E, nu], inclusion [E, nu]).
+MATERIALS = {
+    "glass/epoxy": ([3.01e9, 0.394], [76e9, 0.23]),       # seed 000 Figs. 8-9 (contrast E 25)
+    "AP/HTPB": ([0.6e6, 0.499], [32.45e9, 0.1433]),       # propellant: contrast E 5.4e4, near-incompressible binder
+}
+
+
+def _materials(x):
+    x = [x] if isinstance(x, str) else x
+    if not isinstance(x, (list, tuple)) or not all(isinstance(e, str) for e in x):
+        raise v.Bad(f"expected names from {sorted(MATERIALS)}")
+    for e in x:
+        if e not in MATERIALS:
+            raise v.Bad(f"unknown material system {e!r}; allowed: {', '.join(sorted(MATERIALS))}")
+    return list(x)
+
+
+_materials.describe = "material systems: " + ", ".join(sorted(MATERIALS))
+
+
+def _resolutions(x):
+    xs = x if isinstance(x, (list, tuple)) else [x]
+    if not xs or any(isinstance(e, bool) or not isinstance(e, int) or e < 4 for e in xs) or sorted(xs) != list(xs):
+        raise v.Bad("expected an integer >= 4 or an increasing array of them (e.g. [32, 48, 64])")
+    return xs if isinstance(x, (list, tuple)) else int(x)
+
+
+_resolutions.describe = "voxels along the box: an integer or an increasing array (Richardson estimate)"
+
+
+@dataclass(frozen=True)
+class HomogenizeOptions:
+    matrix: list = option(None, _young_pair, "matrix phase [E, nu] (Pa); with inclusions: one custom system")
+    inclusions: list = option(None, _young_pairs, "inclusion phase [E, nu] for every species, or one per species")
+    materials: list = option(None, _materials, "named systems solved as well: 'glass/epoxy', 'AP/HTPB'")
+    resolution: int = option(48, _resolutions, "voxels along the longest box axis; an array gives the resolution "
+                                               "series and its Richardson estimate")
+    tolerance: float = option(1e-6, v.fraction_open, "CG stops at this relative residual")
+    max_iterations: int = option(5000, v.int_min(1), "CG iterations per load case before giving up")
+    scheme: str = option("willot", v.choice("willot", "fourier"), "discrete (rotated, Willot) or continuous Green operator")
+    workers: int = option(None, v.int_min(1), "FFT threads (default: all CPUs)")
+
+
+def _check_homogenize(resolved, path):
+    from ..errors import InvalidInputError
+
+    t = resolved
+    if (t.get("matrix") is None) != (t.get("inclusions") is None):
+        raise InvalidInputError(f"{path}: give both matrix and inclusions, or neither (and materials)")
+    if t.get("matrix") is None and not t.get("materials"):
+        raise InvalidInputError(f"{path}: give matrix and inclusions ([E, nu]) or materials "
+                                f"(one of {', '.join(sorted(MATERIALS))})")
+
+
+#: Summary scalars of ``[analysis.homogenize]`` (``homogenize.<key>``; ``homogenize<i>.<key>`` with several systems).
+HOMOGENIZE_SCALARS = (
+    "bulk", "shear", "young", "poisson",                 # isotropic projections of the full-field tensor, Pa
+    "bulk_ratio", "shear_ratio", "young_ratio",          # over the matrix: K*/K0, mu*/mu0, E*/E0
+    "volume_fraction", "voxel_volume_fraction",          # exact and voxel inclusion fractions
+    "iterations", "iterations_total", "converged", "seconds", "anisotropy", "asymmetry",
+)
+
+register(
+    "analysis", "homogenize", HomogenizeOptions, "polypack.mechanics.stages:run_homogenize",
+    Outputs(scalars=HOMOGENIZE_SCALARS, flatten=("stiffness", "extrapolated")),
+    doc="full-field effective stiffness of the pack's voxel image (FFT Lippmann-Schwinger, CG; docs/fullfield.md)",
+    requires=("polypack.mechanics:homogenize",), preflight="polypack.mechanics.stages:preflight_3d",
+    check=_check_homogenize, kernels=("polypack._kernels.voxel",),
+)

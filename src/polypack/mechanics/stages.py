@@ -178,3 +178,71 @@ def run_shear(packing, opts, seed):
         out["storage_modulus_MPa"] = sm * 1e-6 if sm is not None else None
         out["loss_modulus_MPa"] = lm * 1e-6 if lm is not None else None
     return out
+
+
+# --------------------------------------------------------------------------- [analysis.homogenize] (issue 34)
+def _systems(opts):
+    """``[(name, matrix Phase, [inclusion Phase, ...])]`` of a resolved ``[analysis.homogenize]`` table."""
+    from ._capabilities import MATERIALS
+    from .effective import Phase
+
+    out = []
+    for name in opts.get("materials") or ():
+        m, f = MATERIALS[name]
+        out.append((name, Phase.from_young(*m), [Phase.from_young(*f)]))
+    if opts.get("matrix") is not None:
+        incs = opts["inclusions"]
+        incs = [incs] if not isinstance(incs[0], (list, tuple)) else incs
+        out.append(("custom", Phase.from_young(*opts["matrix"]), [Phase.from_young(*p) for p in incs]))
+    return out
+
+
+def homogenize_record(packing, matrix, inclusions, opts, name="custom"):
+    """One system's ``[analysis.homogenize]`` record: the full-field tensor, its isotropic moduli and ratios.
+
+    A solve that did not converge keeps ``converged = 0`` and leaves the moduli out (no NaN
+    and no unconverged number reaches a record).
+    """
+    from .fullfield import homogenize
+
+    res = opts.get("resolution", 48)
+    kw = dict(tolerance=opts.get("tolerance", 1e-6), max_iterations=opts.get("max_iterations", 5000),
+              scheme=opts.get("scheme", "willot"), workers=opts.get("workers"))
+    incs = inclusions if len(inclusions) > 1 else inclusions[0]
+    if isinstance(res, list):
+        r = homogenize(packing, matrix, incs, res[-1], resolutions=res, **kw)
+    else:
+        r = homogenize(packing, matrix, incs, res, **kw)
+    d = r.to_dict()
+    vf = r.volume_fractions
+    out = {"estimator": "FFTHomogenization", "system": name, "matrix": matrix.to_dict(),
+           "inclusions": [p.to_dict() for p in inclusions], "resolution": d["resolution"], "scheme": d["scheme"],
+           "tolerance": d["tolerance"], "converged": int(r.converged), "iterations": d["iterations"],
+           "iterations_total": d["iterations_total"], "seconds": d["seconds"],
+           "volume_fraction": float(1.0 - vf["exact"][0]), "voxel_volume_fraction": float(1.0 - vf["voxel"][0]),
+           "convergence": d["convergence"]}
+    if not r.converged:
+        return out
+    out.update(stiffness=d["stiffness"], bulk=r.bulk, shear=r.shear, young=r.young, poisson=r.poisson,
+               bulk_ratio=r.bulk / matrix.bulk, shear_ratio=r.shear / matrix.shear, young_ratio=r.young / matrix.young,
+               anisotropy=d["anisotropy"], asymmetry=d["asymmetry"])
+    if r.extrapolated:
+        ext = {}
+        for q in ("bulk", "shear"):
+            e = r.extrapolated[q]
+            ref = getattr(matrix, q)
+            ext[q + "_ratio"] = {"value": e["value"] / ref, "error": e["error"] / ref, "order": e["order"]}
+        out["extrapolated"] = ext
+    return out
+
+
+def run_homogenize(packing, opts, seed):
+    """``[analysis.homogenize]``: the full-field moduli of the pack for every material system.
+
+    One system gives one record (``homogenize.<key>`` in ``summary.csv``), several a list
+    (``homogenize0.<key>``, ``homogenize1.<key>``, ...: the ``materials`` in order, then the custom system).
+    ``seed`` is unused (the solve is deterministic).
+    """
+    path = "analysis.homogenize"
+    out = [_prefixed(path, homogenize_record, packing, m, incs, opts, name) for name, m, incs in _systems(opts)]
+    return out[0] if len(out) == 1 else out

@@ -421,6 +421,17 @@ def run_figures(run: RunFolder, packs, *, theory=False, compare=(), plots_dir=No
                  "(the Eq. (6) of 003_873b69fc71c74cf6.txt fit of its pore-size survival), as Fig. 6 of seed 003; "
                  "one colour per run.")
             break
+    ffg = [P.fullfield_moduli_groups(label, recs) for label, recs in
+           [(_protocol_label(run.study) + f" ({run.name})", run.records)]
+           + [(_protocol_label(o["run"].study) + f" ({o['run'].name})", o["run"].records) for o in compare]]
+    ffg = [g for g in ffg if g is not None]
+    if ffg:
+        fig = P.moduli_vs_c_figure(ffg)
+        emit("moduli_fullfield", fig, "Effective moduli E*/E0 and μ*/μ0 against the inclusion volume fraction c "
+             "(Figs. 8–9 of seed 000): the full-field FFT solution of each pack's voxel image "
+             "([analysis.homogenize], docs/fullfield.md; filled circles, mean ± 1.96 SE over realizations; diamonds: "
+             "Richardson continuum estimate with its discretization error) beside Mori–Tanaka, the Hashin–Shtrikman "
+             "upper bound, the three-point bounds from the packs' ζ2, η2 (bars) and MEFM (squares); one colour per run.")
     if pk0 is not None:
         try:
             from ..ensemble.stages import make_model
