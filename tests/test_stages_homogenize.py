@@ -62,6 +62,13 @@ def test_report_has_the_fullfield_moduli_figure(ff_run):
     assert "full field" in svg and "E*/E0" in svg
 
 
+def test_default_system_is_glass_epoxy():
+    from polypack.mechanics.stages import _systems
+
+    assert [n for n, _, _ in _systems({})] == ["glass/epoxy"]
+    assert [n for n, _, _ in _systems({"matrix": [1.0, 0.3], "inclusions": [2.0, 0.3]})] == ["custom"]
+
+
 def test_two_systems_give_two_records(tmp_path):
     st = _study({"matrix": [1e9, 0.3], "inclusions": [2e9, 0.3], "materials": ["glass/epoxy"], "resolution": 8,
                  "tolerance": 1e-4}, moduli=False)
@@ -74,7 +81,6 @@ def test_two_systems_give_two_records(tmp_path):
 
 @pytest.mark.parametrize("bad, match", [
     ({"matrix": [1e9, 0.3]}, "both matrix and inclusions"),
-    ({}, "materials"),
     ({"materials": ["steel/air"]}, "unknown material system"),
     ({"matrix": [1e9, 0.5], "inclusions": [2e9, 0.3]}, "finite bulk"),
     ({"materials": ["AP/HTPB"], "resolution": [32, 16]}, "increasing"),

@@ -199,7 +199,8 @@ _resolutions.describe = "voxels along the box: an integer or an increasing array
 class HomogenizeOptions:
     matrix: list = option(None, _young_pair, "matrix phase [E, nu] (Pa); with inclusions: one custom system")
     inclusions: list = option(None, _young_pairs, "inclusion phase [E, nu] for every species, or one per species")
-    materials: list = option(None, _materials, "named systems solved as well: 'glass/epoxy', 'AP/HTPB'")
+    materials: list = option(None, _materials, "named systems solved as well: 'glass/epoxy', 'AP/HTPB' "
+                                                  "(without matrix and inclusions: 'glass/epoxy')")
     resolution: int = option(48, _resolutions, "voxels along the longest box axis; an array gives the resolution "
                                                "series and its Richardson estimate")
     tolerance: float = option(1e-6, v.fraction_open, "CG stops at this relative residual")
@@ -214,9 +215,6 @@ def _check_homogenize(resolved, path):
     t = resolved
     if (t.get("matrix") is None) != (t.get("inclusions") is None):
         raise InvalidInputError(f"{path}: give both matrix and inclusions, or neither (and materials)")
-    if t.get("matrix") is None and not t.get("materials"):
-        raise InvalidInputError(f"{path}: give matrix and inclusions ([E, nu]) or materials "
-                                f"(one of {', '.join(sorted(MATERIALS))})")
 
 
 #: Summary scalars of ``[analysis.homogenize]`` (``homogenize.<key>``; ``homogenize<i>.<key>`` with several systems).

@@ -187,7 +187,8 @@ def _systems(opts):
     from .effective import Phase
 
     out = []
-    for name in opts.get("materials") or ():
+    names = opts.get("materials") or ([] if opts.get("matrix") is not None else ["glass/epoxy"])
+    for name in names:
         m, f = MATERIALS[name]
         out.append((name, Phase.from_young(*m), [Phase.from_young(*f)]))
     if opts.get("matrix") is not None:
