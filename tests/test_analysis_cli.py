@@ -23,7 +23,7 @@ def test_analyze_all_json_and_plots(pack_file, tmp_path, capsys):
     path, pk = pack_file
     out = tmp_path / "res.json"
     plots = tmp_path / "plots"
-    main(["analyze", str(path), "--json", str(out), "--plots", str(plots), "--points", "20000", "--dr", "0.05"])
+    main(["analyze", str(path), "--json", str(out), "--plots", str(plots), "--n-points", "20000", "--dr", "0.05"])
     d = json.loads(out.read_text())
     for key in ("rdf", "kfunction", "windows", "contacts", "pores", "contact_values"):
         assert key in d, key
@@ -39,7 +39,7 @@ def test_analyze_all_json_and_plots(pack_file, tmp_path, capsys):
 def test_analyze_selection_and_cap(pack_file, tmp_path, capsys):
     path, _ = pack_file
     out = tmp_path / "r.json"
-    main(["analyze", str(path), "--contacts", "--r-max", "100", "--json", str(out)])
+    main(["analyze", str(path), "--contacts", "--json", str(out)])  # (--r-max would be an error: unused)
     d = json.loads(out.read_text())
     assert "contacts" in d and "rdf" not in d and "pores" not in d
     main(["analyze", str(path), "--rdf", "--r-max", "100", "--json", str(out)])

@@ -305,3 +305,32 @@ def test_units_are_one_per_quantity():
     mixed = {k: u for k, u in units.items() if len(u) > 1}
     assert not mixed, mixed
     assert registry.get("protocol", "brownian").specs()["surface_potential"].unit == "V"
+
+
+def test_analyze_runs_the_registered_stages_with_the_study_units_and_defaults(tmp_path):
+    """`polypack analyze` and `polypack run` share the declarations: same keys, units (r_max, dr in the
+    pack's length unit) and defaults, and the same numbers as the registered run function."""
+    from polypack.cli import main
+
+    rng = np.random.default_rng(3)
+    pts = []
+    while len(pts) < 80:  # a dilute random pack of spheres of radius 0.5 in a box of 10
+        x = rng.random(3) * 10.0
+        if all(np.linalg.norm((x - y + 5.0) % 10.0 - 5.0) > 1.0 for y in pts):
+            pts.append(x)
+    pk = pp.Packing(np.array(pts), np.full(len(pts), 0.5), 10.0)
+    pp.io.write(tmp_path / "p.gsd", pk)
+    main(["analyze", str(tmp_path / "p.gsd"), "--rdf", "--contacts", "--json", str(tmp_path / "a.json")])
+    d = json.loads((tmp_path / "a.json").read_text())
+    rdf = registry.get("analysis", "rdf")
+    opts = rdf.resolve({})
+    assert d["rdf"]["r_max"] == opts["r_max"] == 3.0 and d["rdf"]["dr"] == opts["dr"] == 0.02
+    direct = rdf.load()(pk, opts, None).to_dict()
+    assert np.array_equal(np.asarray(d["rdf"]["g"], dtype=float), np.asarray(direct["g"], dtype=float))
+    assert d["contacts"]["tolerance"] == registry.get("analysis", "contacts").resolve({})["tolerance"]
+    main(["analyze", str(tmp_path / "p.gsd"), "--rdf", "--r-max", "2.5", "--dr", "0.05", "--json",
+          str(tmp_path / "b.json")])
+    d = json.loads((tmp_path / "b.json").read_text())
+    assert d["rdf"]["r_max"] == 2.5 and d["rdf"]["dr"] == 0.05  # length units, as in [analysis.rdf]
+    with pytest.raises(SystemExit):  # an option of an analysis that is not selected is an error, not ignored
+        main(["analyze", str(tmp_path / "p.gsd"), "--contacts", "--r-max", "2.0"])

@@ -25,7 +25,8 @@ _WHERE = {
 _KIND_TEXT = {
     "psd": "Size-distribution models (`[psd]`, `polypack psd`).",
     "protocol": "Packing protocols (`[protocol]`; `polypack NAME OUT` with the fields as flags).",
-    "analysis": "Analyses of a finished pack (`[analysis.NAME]`; `polypack analyze --run NAME:key=value`).",
+    "analysis": "Analyses of a finished pack (`[analysis.NAME]`; `polypack analyze` with the fields as flags, "
+                "or `polypack analyze --run NAME:key=value`).",
     "mechanics": "Mechanics stages of a finished pack (`[analysis.NAME]`; `polypack NAME PACK` with the fields "
                  "as flags).",
 }

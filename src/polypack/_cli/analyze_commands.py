@@ -9,91 +9,85 @@ from typing import List, Optional
 import typer
 
 
-def analyze_packing(
-    pk,
-    rdf=True,
-    partial=True,
-    kfunc=True,
-    windows=True,
-    contacts=True,
-    pores=True,
-    r_max=3.0,
-    dr=0.01,
-    window_radius=2.5,
-    tolerance=0.01,
-    n_points=200_000,
-    seed=1,
-    plots=None,
-):
-    """Run the selected estimators on ``pk``; returns plain JSON-able data.
+#: The registered analyses `polypack analyze` runs (all unless some are selected), and their selection flags.
+STAGES = {"rdf": "rdf", "kfunc": "kfunction", "windows": "windows", "contacts": "contacts", "pores": "pores"}
 
-    ``r_max`` is in diameters of the largest species (so that every partial RDF
-    reaches beyond its first shells) and ``dr`` in number-mean diameters; ``r_max``
-    is capped at half the smallest box length (the cap is reported).
+
+def option_fields() -> dict:
+    """``{field: (OptionSpec, [analyses])}``: the option flags of ``analyze``, the fields of its analyses."""
+    from .. import registry
+
+    out = {}
+    for name in STAGES.values():
+        for k, spec in registry.get("analysis", name).specs().items():
+            if spec.cli:
+                out.setdefault(k, (spec, []))[1].append(name)
+    return out
+
+
+def analyze_packing(pk, selected=tuple(STAGES.values()), options=None, seed=1, plots=None, partial=True):
+    """Run the selected registered analyses on ``pk``, as ``polypack run`` does; returns plain JSON-able data.
+
+    ``options`` holds ``[analysis.NAME]`` keys (study units and defaults: ``r_max`` and ``dr``
+    in the pack's length unit, ...) given on the command line; each analysis takes the keys
+    it declares, resolved by the registry (:meth:`polypack.registry.Capability.resolve`) and
+    run by its registered run function with a child of ``SeedSequence(seed)``.  ``r_max``
+    beyond half the smallest box length is capped there (reported in ``notes``).
     """
     import numpy as np
 
-    from .. import _interrupt, analysis
+    from .. import _interrupt, analysis, registry
     from ..analysis._base import to_jsonable
-    from ..analysis._paircounts import species_radii
     from ..errors import InvalidInputError
+    from ._generated import _table
 
-    d_mean = float(np.mean(2 * pk.radii))
-    d_large = float(2 * np.nanmax(species_radii(pk)))
-    r_abs = r_max * d_large
+    options = dict(options or {})
     notes = []
     half = 0.5 * float(np.min(pk.box))
-    if r_abs > half:
-        notes.append(f"r_max {r_abs:g} capped at half the box length {half:g}")
-        r_abs = half
-    step = dr * d_mean
     out = {
         "n": pk.n,
         "box": pk.box.tolist(),
         "volume_fraction": pk.volume_fraction,
         "species_counts": pk.species_counts.tolist(),
-        "mean_diameter": d_mean,
-        "largest_species_diameter": d_large,
+        "mean_diameter": float(np.mean(2 * pk.radii)),
         "notes": notes,
     }
     figs = {}
-    if rdf or partial:
-        g = analysis.RDF(r_max=r_abs, dr=step).compute(pk)
-        out["rdf"] = g.to_dict()
-        vals, errs = analysis.contact_value(pk, return_error=True)
-        ns = pk.n_species
-        out["contact_values"] = to_jsonable(
-            {(k, m): {"value": vals[(k, m)], "error": errs[(k, m)]} for k in range(ns) for m in range(k, ns)}
-        )
-        figs["rdf"] = lambda ax: g.plot(ax=ax, partials=partial)
-        if partial and ns > 1:
-            figs["rdf_partial_R"] = lambda ax: g.plot(ax=ax, coordinate="R")
-    _interrupt.check()
-    if kfunc:
-        k = analysis.KFunction(r_max=r_abs, dr=step).compute(pk)
-        out["kfunction"] = k.to_dict()
-        figs["kfunction"] = lambda ax: k.plot(ax=ax)
-    _interrupt.check()
-    if windows:
-        w = analysis.WindowCounts(window_radius=window_radius)
+    seeds = dict(zip(selected, np.random.SeedSequence(seed).spawn(len(selected))))
+    for name in selected:
+        cap = registry.get("analysis", name)
+        given = {k: v for k, v in options.items() if k in cap.specs()}
+        opts = _table(cap, given, f"analysis.{name}")
+        if "r_max" in opts and opts["r_max"] > half:
+            notes.append(f"{name}: r_max {opts['r_max']:g} capped at half the box length {half:g}")
+            opts["r_max"] = half
         try:
-            w.compute(pk)
-        except InvalidInputError as exc:  # window larger than half the box
-            notes.append(f"windows skipped: {exc}")
-        else:
-            out["windows"] = w.to_dict()
-            figs["windows"] = lambda ax: w.plot(ax=ax)
-    _interrupt.check()
-    if contacts:
-        c = analysis.Contacts(tolerance=tolerance).compute(pk)
-        out["contacts"] = c.to_dict()
-        figs["contacts"] = lambda ax: c.plot(ax=ax)
-    _interrupt.check()
-    if pores:
-        p = analysis.PoreSizes(n_points=n_points, seed=seed).compute(pk)
-        out["pores"] = p.to_dict()
-        figs["pores"] = lambda ax: p.plot(ax=ax)
-    _interrupt.check()
+            est = cap.load()(pk, opts, seeds[name])
+        except InvalidInputError as exc:
+            if name != "windows":
+                raise InvalidInputError(f"analysis.{name}: {exc}") from None
+            notes.append(f"windows skipped: {exc}")  # a window larger than half the box
+            _interrupt.check()
+            continue
+        ests = est if isinstance(est, list) else [est]
+        dicts = [e if isinstance(e, dict) else e.to_dict() for e in ests]
+        out[name] = dicts if isinstance(est, list) else dicts[0]
+        for j, e in enumerate(ests):
+            if hasattr(e, "plot"):
+                key = name if j == 0 else f"{name}{j}"
+                if name == "rdf":
+                    figs[key] = (lambda e: lambda ax: e.plot(ax=ax, partials=partial))(e)
+                    if partial and pk.n_species > 1:
+                        figs["rdf_partial_R"] = (lambda e: lambda ax: e.plot(ax=ax, coordinate="R"))(e)
+                else:
+                    figs[key] = (lambda e: lambda ax: e.plot(ax=ax))(e)
+        if name == "rdf":
+            vals, errs = analysis.contact_value(pk, return_error=True)
+            ns = pk.n_species
+            out["contact_values"] = to_jsonable(
+                {(k, m): {"value": vals[(k, m)], "error": errs[(k, m)]} for k in range(ns) for m in range(k, ns)}
+            )
+        _interrupt.check()
     if plots is not None:
         import matplotlib
 
@@ -159,21 +153,15 @@ def register(app: typer.Typer) -> None:
 
     names = ", ".join(registry.stages())  # analyses and mechanics stages
 
-    @app.command()
     def analyze(
         file: Path = typer.Argument(..., help="Packing file (gsd, xyz, lammps data, csv)."),
-        rdf: bool = typer.Option(False, "--rdf", help="Total RDF g(r) and contact values g(2a+)."),
-        partial: bool = typer.Option(False, "--partial", help="Partial RDFs g_km(r) and g_km(R_km)."),
-        kfunc: bool = typer.Option(False, "--kfunc", help="K function, total and partial."),
-        windows: bool = typer.Option(False, "--windows", help="Window histogram p(n_h)."),
-        contacts: bool = typer.Option(False, "--contacts", help="Coordination numbers, rattlers."),
-        pores: bool = typer.Option(False, "--pores", help="Pore-size distribution and DOH fit."),
-        r_max: float = typer.Option(3.0, help="RDF/K range in diameters of the largest species (capped at half the box)."),
-        dr: float = typer.Option(0.01, help="Bin width in mean diameters."),
-        window_radius: float = typer.Option(2.5, help="Window radius R_h in sphere radii."),
-        tolerance: float = typer.Option(0.01, help="Contact gap tolerance eps."),
-        points: int = typer.Option(200_000, help="Test points for the pore sizes."),
-        seed: int = typer.Option(1, help="Seed of the pore test points."),
+        rdf: bool = typer.Option(False, "--rdf", help="Total RDF g(r) and contact values g(2a+) (\\[analysis.rdf])."),
+        partial: bool = typer.Option(False, "--partial", help="Partial RDFs g_km(r) and g_km(R_km) (\\[analysis.rdf])."),
+        kfunc: bool = typer.Option(False, "--kfunc", help="K function, total and partial (\\[analysis.kfunction])."),
+        windows: bool = typer.Option(False, "--windows", help="Window histogram p(n_h) (\\[analysis.windows])."),
+        contacts: bool = typer.Option(False, "--contacts", help="Coordination numbers, rattlers (\\[analysis.contacts])."),
+        pores: bool = typer.Option(False, "--pores", help="Pore-size distribution and DOH fit (\\[analysis.pores])."),
+        seed: int = typer.Option(1, help="Seed of the analyses' random numbers (pore test points)."),
         json_out: Optional[str] = typer.Option(None, "--json", help="Write all results as JSON here ('-': stdout)."),
         plots: Optional[Path] = typer.Option(None, "--plots", help="Write PNG plots into this folder."),
         fmt: Optional[str] = typer.Option(None, "--format", help="Override the file format."),
@@ -182,6 +170,7 @@ def register(app: typer.Typer) -> None:
             None, "--run",
             help=f"Run a registered analysis with the options of its \\[analysis.NAME] study table (user length "
                  f"units), e.g. --run rdf:r_max=2.5,dr=0.02; repeatable. Registered: {names}."),
+        options: dict = None,
     ):
         """Statistical descriptors of a pack (all of them unless some are selected)."""
         from .. import io
@@ -206,14 +195,17 @@ def register(app: typer.Typer) -> None:
                 if overlaps == "error":
                     raise OverlapError(msg)
                 typer.echo(f"warning: {msg}", err=True)
-        chosen = [rdf, partial, kfunc, windows, contacts, pores]
-        if not any(chosen):
-            chosen = [not run] * 6
+        flags = {"rdf": rdf or partial, "kfunc": kfunc, "windows": windows, "contacts": contacts, "pores": pores}
+        if not any(flags.values()):
+            flags = dict.fromkeys(flags, not run)
+        unused = sorted(k for k in options if not any(k in registry.get("analysis", STAGES[f]).specs()
+                                                      for f, on in flags.items() if on))
+        if unused:
+            raise InvalidInputError(f"--{unused[0].replace('_', '-')}: not used by the selected analyses "
+                                    f"({', '.join(STAGES[f] for f, on in flags.items() if on) or 'none'})")
         with overlap_policy("ignore"):  # judged above, once
-            res = analyze_packing(
-                pk, *chosen, r_max=r_max, dr=dr, window_radius=window_radius, tolerance=tolerance,
-                n_points=points, seed=seed, plots=plots,
-            )
+            res = analyze_packing(pk, [STAGES[f] for f, on in flags.items() if on], options, seed=seed, plots=plots,
+                                  partial=partial or not rdf)
         res = {"file": str(file), **res}
         if run:
             res["registered"] = run_registered(pk, run, seed)
@@ -237,11 +229,12 @@ def register(app: typer.Typer) -> None:
             typer.echo(f"  {cv}")
         if "contacts" in res:
             typer.echo(
-                f"  coordination {res['contacts']['coordination']:.3f} (eps={tolerance:g}), "
+                f"  coordination {res['contacts']['coordination']:.3f} (eps={res['contacts']['tolerance']:g}), "
                 f"rattlers {res['contacts']['rattler_fraction']:.3f}"
             )
         if "windows" in res:
-            typer.echo(f"  window counts R_h={window_radius:g}: mean {res['windows']['mean']:.3f}")
+            for w in (res["windows"] if isinstance(res["windows"], list) else [res["windows"]]):
+                typer.echo(f"  window counts R_h={w['window_radius']:g}: mean {w['mean']:.3f}")
         if "pores" in res:
             f = res["pores"]["fit"]["normalized"]
             if "a" in f:
@@ -251,3 +244,34 @@ def register(app: typer.Typer) -> None:
             typer.echo(f"  wrote {json_out}")
         if plots is not None:
             typer.echo(f"  wrote {len(res.get('plots', []))} plots to {plots}")
+
+    app.command("analyze")(_with_option_fields(analyze))
+
+
+def _with_option_fields(func):
+    """``analyze`` with one flag per field of its analyses (the ``[analysis.NAME]`` keys, study units and
+    defaults); the command receives the given ones as ``options``."""
+    import inspect
+    import typing
+
+    from ._generated import _help, cli_type, flag
+
+    hints = typing.get_type_hints(func)
+    own = [p.replace(kind=inspect.Parameter.KEYWORD_ONLY, annotation=hints.get(p.name, p.annotation))
+           for p in inspect.signature(func).parameters.values() if p.name != "options"]
+    names = {p.name for p in own}
+    fields = []
+    for key, (spec, users) in option_fields().items():
+        typ = cli_type(spec)
+        decl = f"{flag(key)}/--no-{key.replace('_', '-')}" if typ is bool else flag(key)
+        fields.append(inspect.Parameter(key, inspect.Parameter.KEYWORD_ONLY, annotation=Optional[typ],
+                                        default=typer.Option(None, decl, help=f"\\[{', '.join(users)}] " + _help(spec))))
+
+    def command(**kw):
+        mine = {k: kw.pop(k) for k in names}
+        return func(**mine, options={k: v for k, v in kw.items() if v is not None})
+
+    command.__signature__ = inspect.Signature(own + fields)
+    command.__doc__ = func.__doc__
+    command.__name__ = func.__name__
+    return command
