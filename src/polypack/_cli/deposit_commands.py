@@ -9,10 +9,12 @@ import numpy as np
 import typer
 
 from ..errors import InvalidInputError
+from ._generated import options_from
 
 
 def register(app: typer.Typer) -> None:
     @app.command("deposit")
+    @options_from("protocol", "deposit")
     def deposit_command(
         sizes: Optional[Path] = typer.Argument(
             None, help="Size-set CSV (radius[,species] columns, e.g. from `polypack psd`); else use --n or --span."),
@@ -23,24 +25,20 @@ def register(app: typer.Typer) -> None:
         a: float = typer.Option(1.0, "--a", help="CB shape parameter a."),
         b: float = typer.Option(1.0, "--b", help="CB shape parameter b."),
         min_total: int = typer.Option(2000, "--min-total", help="CB size set: minimum number of disks N_p^min."),
-        width: Optional[float] = typer.Option(None, "--width", help="Box width (default: a roughly square deposit)."),
-        boundary: str = typer.Option("periodic", "--boundary", help="'periodic' or 'walls' along x."),
-        order: str = typer.Option("random", "--order", help="'random' or 'given' deposition order."),
-        floor_rule: str = typer.Option(
-            "centred", "--floor-rule", help="Bare floor: 'centred' (midpoint of the leftmost bare stretch, as "
-            "LMGC90) or 'left' (its leftmost point: a touching first row)."),
         seed: Optional[int] = typer.Option(None, "--seed", help="Random seed (recorded in the output)."),
         output: Optional[Path] = typer.Option(None, "--output", "-o", help="Output file (.gsd, .xyz, .csv, .vtp)."),
         progress: Optional[bool] = typer.Option(None, "--progress/--no-progress", help="Progress bar."),
         dim: int = typer.Option(2, "--dim", help="2 (disks) or 3 (spheres; --width is the side of the square footprint)."),
-        rule: Optional[str] = typer.Option(
-            None, "--rule", help="3D: 'surface' (lowest stable surface pocket, default) or 'roll' (drop-and-roll, "
-            "Visscher & Bolsterli 1972: small spheres enter the pores; periodic only)."),
         plot: Optional[Path] = typer.Option(
             None, "--plot", help="Write a figure of the height profiles (packing fraction; 3D: small-sphere volume "
             "fraction with standard errors) to this file (.png, .pdf, .svg)."),
+        options: dict = None,
     ):
-        """Deposit disks or spheres one by one; print the bulk statistics."""
+        """Deposit disks or spheres one by one; print the bulk statistics.
+
+        The deposition flags (--width, --boundary, --order, --tolerance, --floor-rule, --rule) are the
+        [protocol] keys of kind = "deposit" (docs/reference.md).
+        """
         import polypack as pp
 
         from .._util import output_path
@@ -48,6 +46,13 @@ def register(app: typer.Typer) -> None:
         if output is not None:  # checked before the deposit is computed
             pp.io.format_for(output)
             output_path(output)
+        given = [f for f, x in (("SIZES", sizes), ("--span", span), ("--n", n)) if x is not None]
+        if len(given) > 1:
+            raise InvalidInputError(f"{' and '.join(given)}: give one source of sizes (a size-set file, --span or --n)")
+        if options.get("floor_rule") is not None and dim != 2:
+            raise InvalidInputError(f"--floor-rule {options['floor_rule']}: only for 2D deposits (--dim 2)")
+        if options.get("rule") is not None and dim != 3:
+            raise InvalidInputError(f"--rule {options['rule']}: only for 3D deposits (--dim 3)")
         if sizes is not None:
             if not sizes.exists():
                 raise InvalidInputError(f"size-set file {sizes} does not exist")
@@ -88,9 +93,9 @@ def register(app: typer.Typer) -> None:
             from .._util import check_plot_path
 
             check_plot_path(plot)
-        pk = pp.deposit(src, width=width, boundary=boundary, order=order, seed=seed, progress=progress,
-                        floor_rule=floor_rule if dim == 2 else None, rule=rule)
-        rule_word = f"floor_rule={floor_rule}" if dim == 2 else f"rule={pk.meta.get('rule')}"
+        pk = pp.deposit(src, seed=seed, progress=progress, **options)  # the flags are DepositOptions' fields
+        rule_word = f"floor_rule={pk.meta.get('floor_rule')}" if dim == 2 else f"rule={pk.meta.get('rule')}"
+        boundary = options["boundary"]
         box = "x".join(f"{v:.6g}" for v in pk.box)
         msg = f"deposited N={pk.n} box={box} boundary={boundary} {rule_word} min_gap={pk.min_gap():.3e}"
         st = None
