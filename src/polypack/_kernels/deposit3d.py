@@ -20,8 +20,12 @@ the envelope (no sphere's dilated cap above it, relative tolerance ``tol``, floo
 respected) and **stable**: the vertical ``e_z`` lies in the cone of its contact normals
 (``e_z = sum lambda_a n_a`` with ``lambda_a >= 0``; a floor contact is always stable).  The
 sphere goes to the lowest accepted candidate.  If there is none (a small sphere whose every
-pocket lies under an overhang), it goes to the lowest stable overlap-free candidate (counted
-in ``state[N_OVERHANG]``).
+pocket lies under an overhang), it goes to the lowest stable candidate free of overlaps with
+every sphere placed, buried ones included (all-sphere cell grid of :mod:`.roll3d`; counted in
+``state[N_OVERHANG]``).  If there is none either (large size ratios), it is dropped at the column
+of the lowest reachable unstable vertex and rolls from there to a stable rest (drop-and-roll,
+:func:`.roll3d.roll_one`; with walls it stays at that vertex, unsupported), counted in
+``state[N_ROLLED]``.
 
 **Tie rule**: candidates whose heights differ by at most ``tol * r`` are equal; the one with
 the smallest ``x`` in ``[0, Lx)`` wins, then the smallest ``y``.  A bare floor therefore fills
@@ -75,7 +79,7 @@ from enum import IntEnum
 import numpy as np
 from numba import njit
 
-from .roll3d import grid_insert, grid_overlaps
+from .roll3d import grid_insert, grid_overlaps, roll_one
 
 FLOOR = -1
 WALL_X0 = -2
@@ -119,7 +123,8 @@ class Deposit3DState(IntEnum):
     N_OVERHANG = 3  # spheres placed by the overhang fallback
     N_RECOMPUTED = 4  # per-sphere candidate searches done
     N_IMPROVED = 5  # searches that found a candidate below the best one so far
-    N_STATE = 6
+    N_ROLLED = 6  # last resort: no stable overlap-free pocket; dropped at the lowest reachable point and rolled
+    N_STATE = 7
 
 
 @njit(cache=True)
@@ -249,7 +254,7 @@ def _admissible(p, r, s0, s1, s2, pos, rad, L, per, tol, strict, head, nxt, hcel
     if not per[1] and (p[1] < r * (1.0 - tol) or p[1] > L[1] - r * (1.0 - tol)):
         return False
     if not strict:
-        gd, ghead, gnext, gsph, gstamp, gcnt, gbuf = grid
+        gd, ghead, gnext, gsph, gstamp, gcnt, gbuf, _gtops = grid
         return not grid_overlaps(p, r, pos, rad, gd, ghead, gnext, gsph, gstamp, gcnt, gbuf, tol)
     reach = r + rmax
     x_lo, x_hi, y_lo, y_hi = _window(p[0], p[1], reach, hcell, ncx, ncy, per)
@@ -326,6 +331,11 @@ def _offer(p, r, s0, s1, s2, pos, rad, L, per, tol, strict, head, nxt, hcell, nc
     if not _admissible(p, r, s0, s1, s2, pos, rad, L, per, tol, strict, head, nxt, hcell, ncx, ncy, rmax, grid):
         return
     if not _stable(p, r, s0, s1, s2, pos, L, per, tol, nrm):
+        if strict and best.shape[0] > 3 and p[2] < best[3]:
+            # the lowest reachable point that is no stable rest (the last resort of deposit_spheres)
+            best[3] = p[2]
+            best[4] = p[0]
+            best[5] = p[1]
         return
     best[0] = p[2]
     best[1] = p[0]
@@ -794,9 +804,9 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
     cov : (mx * my * (1 + COVER_LEVELS),) float64, in/out
         Covered-height lower bound of the fine column grid: ``rmin`` first, then the levels
         interleaved per cell (``[mx * my + c * COVER_LEVELS + j]``).
-    grid : tuple ``(gd, head, ent_next, ent_sph, stamp, counters, buf)``
+    grid : tuple ``(gd, head, ent_next, ent_sph, stamp, counters, buf, tops)``
         The all-sphere cell grid of :mod:`.roll3d` (:func:`make_grid_3d`; spheres ``< start``
-        registered), for the overlap test of the overhang fallback.
+        registered), for the overlap test of the overhang fallback and the last-resort roll.
 
     Returns
     -------
@@ -804,7 +814,6 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
         :class:`Deposit3DStatus` code.
     """
     n = rad.shape[0]
-    gtops = np.full(int(grid[0][5]) * int(grid[0][6]), -np.inf)  # column tops: unused here
     L = np.empty(2)
     L[0] = params[Deposit3DParam.LX]
     L[1] = params[Deposit3DParam.LY]
@@ -860,9 +869,10 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
             planes[nplanes] = WALL_X0 if a == 0 else WALL_Y0
             planes[nplanes + 1] = WALL_X1 if a == 0 else WALL_Y1
             nplanes += 2
-    best = np.empty(3)
+    best = np.empty(6)
     bsup = np.empty(3, np.int64)
-    gbest = np.empty(3)
+    gbest = np.empty(6)
+    rstate = np.zeros(5)  # RollState of the last-resort rolls
     gsup = np.empty(3, np.int64)
     nb = np.empty((max(n, 16), 6))
     nbh = np.empty((max(n, 16), 4))
@@ -875,6 +885,7 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
         gbest[0] = np.inf
         gbest[1] = np.inf
         gbest[2] = np.inf
+        gbest[3] = np.inf
         for strict in (True, False):
             _global_candidates(r, pos, rad, L, per, tol, strict, planes, nplanes, head, nxt, hcell, ncx, ncy, rmax,
                                gbest, gsup, nrm, grid)
@@ -914,8 +925,13 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
                 else:
                     thr = gbest[0] + tol * r if strict and not search_all else np.inf
                     floor_ok = (not strict) or search_all or work_f[s, 4] <= rmin + tol * rmin
+                    best[3] = np.inf
                     _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, nxt, hcell, ncx,
                                    ncy, rmax, best, bsup, nb, nrm, thr, floor_ok, nbh, grid)
+                    if best[3] < gbest[3]:
+                        gbest[3] = best[3]
+                        gbest[4] = best[4]
+                        gbest[5] = best[5]
                     state[Deposit3DState.N_RECOMPUTED] += 1
                     if strict:
                         work_f[s, 3] = r
@@ -942,19 +958,34 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
                 if not strict:
                     state[Deposit3DState.N_OVERHANG] += 1
                 break
-        if not gbest[0] < np.inf:
+        if gbest[0] < np.inf:
+            pos[i, 0] = gbest[1]
+            pos[i, 1] = gbest[2]
+            pos[i, 2] = gbest[0]
+            for a in range(3):
+                support[i, a] = _report(gsup[a])
+        elif gbest[3] < np.inf and per[0] and per[1]:
+            # last resort (large size ratios): no stable pocket, reachable or under an overhang, free of
+            # overlaps; drop at the column of the lowest reachable point and roll from there (roll3d)
+            roll_one(i, gbest[4], gbest[5], rad, pos, support, grid[0], grid[1], grid[2], grid[3], grid[7], grid[4],
+                     grid[5], grid[6], rstate, tol)
+            state[Deposit3DState.N_ROLLED] += 1
+        elif gbest[3] < np.inf:
+            # walls: rest at the lowest reachable point (on the envelope: no overlap), unsupported
+            pos[i, 0] = gbest[4]
+            pos[i, 1] = gbest[5]
+            pos[i, 2] = gbest[3]
+            for a in range(3):
+                support[i, a] = NO_SUPPORT
+            state[Deposit3DState.N_ROLLED] += 1
+        else:
             status = 1
             state[Deposit3DState.N_PLACED] = i
             break
-        pos[i, 0] = gbest[1]
-        pos[i, 1] = gbest[2]
-        pos[i, 2] = gbest[0]
-        if not grid_insert(i, pos, rad, grid[0], grid[1], grid[2], grid[3], gtops, grid[5]):
+        if not grid_insert(i, pos, rad, grid[0], grid[1], grid[2], grid[3], grid[7], grid[5]):
             status = 2
             state[Deposit3DState.N_PLACED] = i
             break
-        for a in range(3):
-            support[i, a] = _report(gsup[a])
         # surface update: cover, invalidate caches nearby, bury dead spheres, add the new one
         p[0] = pos[i, 0]
         p[1] = pos[i, 1]
@@ -1029,8 +1060,8 @@ def make_grid_3d(rad, lx, ly, periodic):
     rad = np.asarray(rad, dtype=np.float64)
     height = float(4.0 / 3.0 * np.pi * np.sum(rad**3) / (lx * ly * 0.5)) + 4.0 * float(rad.max())
     gd = kr.grid_layout(lx, ly, float(rad.min()), float(rad.max()), height, periodic)
-    head, ent_next, ent_sph, _tops, stamp, counters = kr.make_grid(rad.size, gd, kr.grid_capacity(rad, gd))
-    return (gd, head, ent_next, ent_sph, stamp, counters, np.zeros(max(rad.size, 1), np.int64))
+    head, ent_next, ent_sph, tops, stamp, counters = kr.make_grid(rad.size, gd, kr.grid_capacity(rad, gd))
+    return (gd, head, ent_next, ent_sph, stamp, counters, np.zeros(max(rad.size, 1), np.int64), tops)
 
 
 def warmup():

@@ -247,7 +247,8 @@ def deposit_arrays_3d(radii, width, periodic=True, tolerance=DEFAULT_TOLERANCE, 
     stats = {"alive": int(state[k3.Deposit3DState.N_ALIVE]), "alive_max": int(state[k3.Deposit3DState.ALIVE_MAX]),
              "overhang_placements": int(state[k3.Deposit3DState.N_OVERHANG]),
              "candidate_searches": int(state[k3.Deposit3DState.N_RECOMPUTED]),
-             "improving_searches": int(state[k3.Deposit3DState.N_IMPROVED])}
+             "improving_searches": int(state[k3.Deposit3DState.N_IMPROVED]),
+             "rolled_placements": int(state[k3.Deposit3DState.N_ROLLED])}
     return pos, support, stats
 
 
