@@ -14,6 +14,17 @@ if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
     signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
+def pytest_terminal_summary(terminalreporter):
+    """One visible line when the browser tests were skipped for a missing browser (outside CI)."""
+    import sys
+
+    mod = sys.modules.get("_browser")
+    if mod is not None and mod.MISSING:
+        terminalreporter.write_line(
+            f"browser tests skipped ({mod.MISSING[0]}; CI unset): to run them: {mod.HOW}; with CI=true they fail",
+            yellow=True)
+
+
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)

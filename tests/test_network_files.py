@@ -150,3 +150,21 @@ def test_vtm_parts_are_written_together_or_not_at_all(tmp_path, net, monkeypatch
     with pytest.raises(OSError, match="disk full"):
         iob.write_network(tmp_path / "z.vtm", net.packing, net.i, net.j, net.shift)
     assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_export_network_writes_the_epsilon_network(tmp_path, capsys, net):
+    """`polypack export-network` writes a pack's epsilon-network to GSD, VTK and LAMMPS BPM: the
+    bonds read back are those of BondNetwork.from_packing (186 on the lattice with a vacancy)."""
+    pack = tmp_path / "p.gsd"
+    pp.io.write(pack, net.packing)
+    for ext in (".gsd", ".vtm", ".data"):
+        out = tmp_path / f"n{ext}"
+        code, text, err = run(capsys, "export-network", pack, out, *(("--response",) if ext != ".data" else ()))
+        assert code == 0 and "186 bonds by the epsilon rule" in text, err
+        _, b = read_network(out)
+        got = {tuple(sorted(p)) for p in zip(b["i"].tolist(), b["j"].tolist())}
+        assert got == {tuple(sorted(p)) for p in zip(net.i.tolist(), net.j.tolist())}
+        if ext != ".data":
+            assert "normal_force" in b["bond_data"] and "nonaffine_displacement" in b["particle_data"]
+    code, _, err = run(capsys, "export-network", pack, pack)
+    assert code == 1 and "is the input file" in err

@@ -291,3 +291,29 @@ def test_floppy_structures_are_zero_and_left_out_of_the_fit(tmp_path):
     with pytest.raises(Exception):  # what the old rule fed to the fit: the floppy point breaks it
         bad = power_law_fit(rigid_a + [0.36], [amp * (x - a0) ** beta for x in rigid_a] + [1e-5])
         assert bad.a0 == pytest.approx(a0, rel=1e-3)
+
+
+def test_report_marks_floppy_unconverged_and_nan_structures(tmp_path):
+    """Issue 31: records holding NaN moduli (old runs) or a not-converged / floppy shear test
+    give a report, never a traceback: floppy is G'p = 0, the others are left out and named."""
+    from polypack.ensemble.sweep import heterogeneity_report
+
+    folder = _fake_run(tmp_path / "v", {"kind": "vem", "void_ratio": 1.0})
+    (folder / "realizations").mkdir()
+    a0, beta, amp = 0.37, 0.5, 3.0e6
+    shear = [{"status": "ok", "direction": {"2-0": {"storage_modulus": amp * (a - a0) ** beta}}}
+             for a in (0.40, 0.45, 0.50, 0.55)]
+    shear += [{"status": "floppy", "direction": {}},
+              {"status": "not_converged", "direction": {"2-0": {"storage_modulus": None}}},
+              {"status": "ok", "direction": {"2-0": {"storage_modulus": float("nan")}}}]
+    for i, (a, sh) in enumerate(zip([0.40, 0.45, 0.50, 0.55, 0.36, 0.47, 0.48], shear)):
+        rec = {"index": i, "protocol": {"status": "target"},
+               "analysis": {"pores": {"fit": {"seed": {"a": a, "b": 0.0}}}, "contacts": {"coordination": 4.5},
+                            "shear": sh}}
+        (folder / "realizations" / f"r{i:04d}.json").write_text(json.dumps(rec))  # NaN as JSON NaN, as old runs
+    heterogeneity_report(tmp_path / "out", [(1.0, folder)], parameter="protocol.void_ratio", modulus="shear")
+    data = json.loads((tmp_path / "out" / "heterogeneity" / "fit.json").read_text())
+    assert [p["rigid"] for p in data["points"]] == [True] * 4 + [False]
+    assert data["points"][4]["G_Pa"] == 0.0 and data["rows"][0]["floppy"] == 1
+    assert "2 structure(s) without a modulus" in data["note"] and "r0005" in data["note"] and "r0006" in data["note"]
+    assert data["fit"]["a0"] == pytest.approx(a0, rel=1e-6)

@@ -663,6 +663,12 @@ MUTANTS += [
            '        nv = max(sum(f["void"].size for f in self._frames), 1)\n        return np.sqrt(s * (1 - s) / nv)\n',
            '        nv = max(sum(f["n"] for f in self._frames), 1)\n        return np.sqrt(s * (1 - s) / nv)\n',
            (T_EB, "tests/test_analysis_pores.py"), "wrong count (all test points for the void points)"),
+    Mutant("m31-check-shear-protocol", M + "stages.py",
+           "    _prefixed(path, check_protocol, **kw)\n", "    pass\n",
+           ("tests/test_check_complete.py",), "dropped check (shear protocol options only checked at run time)"),
+    Mutant("m31-check-vem-dim", G + "protocols.py",
+           '    _need_3d(info, path, "vem")\n', "    pass\n",
+           ("tests/test_check_complete.py",), "dropped check (a 2D size set made into 3D VEM structures)"),
 ]
 
 

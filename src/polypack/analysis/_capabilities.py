@@ -94,6 +94,16 @@ def run_pores(packing, opts, seed):
     return pa.PoreSizes(n_points=opts["n_points"], seed=seed, **kw).compute(packing)
 
 
+def preflight_deposit_analysis(opts, info, path):
+    """Before a study runs: the window statistics need a deposit (a floor): ``protocol.kind = "deposit"``."""
+    from ..errors import InvalidInputError
+
+    kind = info.get("protocol")
+    if kind is not None and kind != "deposit":
+        raise InvalidInputError(f'{path}: measures a deposit (floor and free surface); protocol.kind = "{kind}" makes '
+                                'a fully periodic pack (use protocol.kind = "deposit")')
+
+
 def run_deposit(packing, opts, seed):
     """Window statistics of a deposit (2D or 3D), with its height profiles as top-level curves."""
     import polypack.analysis as pa
@@ -148,4 +158,4 @@ register("analysis", "deposit", DepositOptions, run_deposit,
                  curves=Curves("height", "height above the floor y (user length units)",
                                "packing fraction of the strip", plot=("fraction",))),
          doc="packing fraction, coordination and height profiles of a deposit (2D or 3D) in a bulk window (§2.4 of "
-             "001_ad5bae0acea940c4.txt)", requires=(_A + "DepositStatistics",))
+             "001_ad5bae0acea940c4.txt)", requires=(_A + "DepositStatistics",), preflight=preflight_deposit_analysis)

@@ -189,7 +189,8 @@ def preflight(study_data, seed_rec):
                 f"exceed half the periodic box ({half:.4g}) of N={r.size}; use more particles (psd.n) or a smaller "
                 "size ratio"
             )
-    info = {"n": int(r.size), "volume_fraction": vf, "half_box": half, "dim": dim}
+    info = {"n": int(r.size), "volume_fraction": vf, "half_box": half, "dim": dim,
+            "protocol": study_data["protocol"].get("kind")}
     for name in sorted(study_data.get("analysis", {})):
         cap = registry.get("analysis", name)
         if cap.preflight is not None:

@@ -160,6 +160,14 @@ def sweep_studies(path_or_data):
     if data is None:
         load_study(path)  # raises the study loader's one-line error
     sw = _check_sweep(data.pop("sweep"))
+    if sw["report"] == "heterogeneity":  # what the report reads, checked before any value runs
+        ana = data.get("analysis", {}) if isinstance(data.get("analysis"), dict) else {}
+        if "pores" not in ana:
+            raise InvalidInputError('sweep.report = "heterogeneity": needs [analysis.pores] in the study (the DOH a, '
+                                    "b of Eq. (6) of 003_873b69fc71c74cf6.txt)")
+        if sw["modulus"] == "shear" and "shear" not in ana:
+            raise InvalidInputError('sweep.modulus = "shear": needs [analysis.shear] in the study (the dynamic G\'); '
+                                    'or use sweep.modulus = "elastic"')
     name = data.get("study", {}).get("name") or (path.stem if path is not None else "sweep")
     studies = []
     for v in sw["values"]:
@@ -179,7 +187,15 @@ def run_sweep(path_or_data, out=None, *, workers=1, executor=None, force=False, 
     """Run every value of a swept study, then its report; returns ``{value: EnsembleResult}``."""
     from .runner import run_study
 
+    from .stages import check_available, child_seed_records, preflight
+
     sw, studies, name = sweep_studies(path_or_data)
+    for v, st in studies:  # every value's rules before the first runs
+        try:
+            check_available(st.data)
+            preflight(st.data, child_seed_records(st.seed, 1)[0])
+        except InvalidInputError as exc:
+            raise InvalidInputError(f"sweep value {v!r}: {exc}") from None
     out = Path(out) if out is not None else Path("out") / name
     results = {}
     for v, st in studies:
@@ -395,8 +411,8 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
         fit_note += (f"; {dropped} floppy structure(s) (G'p below {FLOPPY_FLOOR:g} of the affine modulus: "
                      f"G'p = 0) left out of the fit")
     if unconverged:
-        fit_note += (f"; {len(unconverged)} structure(s) whose shear test did not converge left out: "
-                     + ", ".join(unconverged[:8]))
+        fit_note += (f"; {len(unconverged)} structure(s) without a modulus (a shear test that did not converge, "
+                     "or NaN in an old record) left out: " + ", ".join(unconverged[:8]))
     files = {}
     key = parameter.split(".")[-1]
     cols = ["set", key, "realizations", "a", "a_se", "b", "C", "C_se", "G_MPa", "G_sd_MPa", "floppy"]

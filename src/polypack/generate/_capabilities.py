@@ -192,7 +192,7 @@ VEM_WORDS = {
 
 register("protocol", "vem", VEMOptions, run_vem, Outputs(meta=("vem",), labels=VEM_WORDS), label="VEM",
          doc="void expansion method (VEM), §2.2 of 003_873b69fc71c74cf6.txt: heterogeneous structures at Φ",
-         requires=("polypack.generate:vem",),
+         requires=("polypack.generate:vem",), preflight="polypack.generate.protocols:preflight_vem",
          kernels=("polypack._kernels.cells", "polypack._kernels.edmd", "polypack._kernels.contacts",
                   "polypack._kernels.dem", "polypack._kernels.vem"))
 

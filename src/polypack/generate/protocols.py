@@ -28,7 +28,8 @@ import numpy as np
 
 from ..errors import InvalidInputError
 
-__all__ = ["run_brownian", "run_deposit", "check_brownian", "preflight_brownian", "preflight_deposit"]
+__all__ = ["run_brownian", "run_deposit", "check_brownian", "preflight_brownian", "preflight_deposit",
+           "preflight_vem"]
 
 
 def _equal_radius(radii, path="protocol"):
@@ -61,9 +62,39 @@ def check_brownian(pr: dict, path: str = "protocol") -> None:
         raise InvalidInputError(f"{path}: {exc}") from None
 
 
+def _need_3d(info: dict, path: str, kind: str) -> None:
+    dim = info.get("dim", 3)
+    if dim != 3:
+        raise InvalidInputError(f'{path}.kind = "{kind}": makes 3D sphere structures; this study\'s sizes are for '
+                                f"dim={dim} (set [psd] dim = 3)")
+
+
 def preflight_brownian(pr: dict, info: dict, path: str = "protocol") -> None:
-    """Before a study runs: one size and at least 16 spheres."""
+    """Before a study runs: 3D sizes, one size and at least 16 spheres."""
+    _need_3d(info, path, "brownian")
     _equal_radius(info["radii"], path)
+
+
+def preflight_vem(pr: dict, info: dict, path: str = "protocol") -> None:
+    """Before a study runs: 3D sizes, at least :data:`~polypack.generate.vem.MIN_SPHERES`
+    structure spheres, at least one void, and a box of at least the minimum-image size
+    (the checks :func:`polypack.vem` makes, on the study's sizes)."""
+    from .vem import MIN_SPHERES
+
+    _need_3d(info, path, "vem")
+    r = np.asarray(info["radii"], dtype=np.float64)
+    if r.size < MIN_SPHERES:
+        raise InvalidInputError(f'{path}.kind = "vem": needs at least {MIN_SPHERES} structure spheres; [psd] n gives '
+                                f"{r.size}")
+    vr, phi = pr.get("void_ratio"), pr.get("volume_fraction")
+    if vr is not None and int(round(vr * r.size)) < 1:
+        raise InvalidInputError(f"{path}.void_ratio = {vr!r}: gives no void sphere for N = {r.size}; need at least 1")
+    if phi is not None:
+        red = r / float(np.mean(r))
+        box_len = (float(np.sum(4.0 / 3.0 * np.pi * red**3)) / phi) ** (1.0 / 3.0)  # Eq. (5) of 003_873b69fc71c74cf6.txt
+        if 2.0 * (2.0 * float(red.max()) + 0.2 * float(red.min())) >= box_len:
+            raise InvalidInputError(f'{path}.kind = "vem": N = {r.size} gives a box of {box_len:.3g} mean radii, too '
+                                    "small for minimum-image contacts; use more spheres ([psd] n)")
 
 
 def run_brownian(sizes, pr: dict, seed, monitor=None):
@@ -91,6 +122,16 @@ def preflight_deposit(pr: dict, info: dict, path: str = "protocol") -> None:
                                 f"for dim={dim})")
     if pr.get("rule") == "roll" and pr.get("boundary", "periodic") != "periodic":
         raise InvalidInputError(f'{path}.rule = "roll": needs boundary = "periodic"')
+    width = pr.get("width")
+    radii = info.get("radii")
+    if width is not None and radii is not None and len(radii):
+        dmax = 2.0 * float(np.max(radii))
+        w = float(np.min(np.atleast_1d(np.asarray(width, dtype=np.float64))))
+        if pr.get("boundary", "periodic") == "periodic" and w < 4.0 * dmax:
+            raise InvalidInputError(f"{path}.width = {width!r}: below four times the largest diameter {dmax:.4g}; a "
+                                    "periodic deposit needs width >= 4 d_max")
+        if w < dmax:
+            raise InvalidInputError(f"{path}.width = {width!r}: narrower than the largest diameter {dmax:.4g}")
     if pr.get("floor_rule") not in (None, "left") and dim != 2:
         raise InvalidInputError(
             f'{path}.floor_rule = "{pr["floor_rule"]}": only for 2D deposits (set [psd] dim = 2; the sizes are '

@@ -135,7 +135,7 @@ register(
     "mechanics", "shear", ShearOptions, "polypack.mechanics.stages:run_shear",
     Outputs(scalars=SHEAR_SCALARS, flatten=("direction",)),
     doc="oscillatory shear test by bonded DEM: G', G'' (§2.4 of 003_873b69fc71c74cf6.txt)",
-    requires=("polypack.mechanics:oscillatory_shear",), preflight="polypack.mechanics.stages:preflight_3d",
+    requires=("polypack.mechanics:oscillatory_shear",), preflight="polypack.mechanics.stages:preflight_shear",
     kernels=("polypack._kernels.cells", "polypack._kernels.network", "polypack._kernels.contacts", "polypack._kernels.dem"),
 )
 

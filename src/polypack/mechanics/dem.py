@@ -813,7 +813,7 @@ def _assess(per_dir, gmean, static, inertial, complete):
     if inertial is None or not math.isfinite(inertial):
         problems.append("inertial error undefined (G' <= 0)")
     elif inertial > INERTIAL_ERROR_LIMIT:
-        problems.append(f"inertial error {inertial:.3g} > {INERTIAL_ERROR_LIMIT:g}"
+        problems.append(f"inertial error {inertial:.4g} > {INERTIAL_ERROR_LIMIT:g}"
                         + (f" (static modulus {static:.4g})" if static is not None else "")
                         + ": the sample cannot follow the drive; raise steps_per_cycle or lower the frequency")
     return ("not_converged" if problems else "ok"), problems
@@ -919,6 +919,54 @@ def _positive(name, v, integer=False, minimum=None):
     return f
 
 
+def check_protocol(directions=6, boundary="lees-edwards", frequency=DEFAULTS["frequency"],
+                   amplitude=DEFAULTS["amplitude"], cycles=DEFAULTS["cycles"], ramp_cycles=None, discard_cycles=1,
+                   steps_per_cycle=4000, samples_per_cycle=100, safety=0.5, damping=DEFAULTS["damping"],
+                   friction=DEFAULTS["friction"], density=DEFAULTS["density"], layers=3, measurement_layers=5,
+                   **_ignored):
+    """The protocol options of :func:`oscillatory_shear`, checked without a network (a study's
+    ``--check`` runs it before any realization); returns them normalised as a dict.
+
+    Raises
+    ------
+    InvalidInputError
+        The first bad value, in one line (e.g. ``amplitude >= 0.1``, ``samples_per_cycle``
+        above ``steps_per_cycle``).
+    """
+    if boundary not in BOUNDARIES:
+        raise InvalidInputError(f"boundary={boundary!r}: allowed are {', '.join(BOUNDARIES)}")
+    dirs = _directions(directions)
+    frequency = _positive("frequency", frequency)
+    amplitude = _positive("amplitude", amplitude)
+    if amplitude >= 0.1:
+        raise InvalidInputError(f"amplitude={amplitude!r}: the small-strain protocol needs a strain below 0.1")
+    cycles = _positive("cycles", cycles, integer=True)
+    ramp = cycles if ramp_cycles is None else _positive("ramp_cycles", ramp_cycles, integer=True)
+    if isinstance(discard_cycles, bool) or not isinstance(discard_cycles, (int, np.integer)) \
+            or not 0 <= discard_cycles < cycles:
+        raise InvalidInputError(f"discard_cycles={discard_cycles!r}: must be an integer in [0, cycles)")
+    steps_per_cycle = _positive("steps_per_cycle", steps_per_cycle, integer=True, minimum=10)
+    samples_per_cycle = _positive("samples_per_cycle", samples_per_cycle, integer=True, minimum=8)
+    if samples_per_cycle > steps_per_cycle:
+        raise InvalidInputError(f"samples_per_cycle={samples_per_cycle}: at most steps_per_cycle={steps_per_cycle}")
+    every = max(1, steps_per_cycle // samples_per_cycle)
+    steps_per_cycle = every * samples_per_cycle
+    safety = _positive("safety", safety)
+    if safety > 1.0:
+        raise InvalidInputError(f"safety={safety!r}: must be in (0, 1]")
+    if not (0.0 <= damping < 1.0):
+        raise InvalidInputError(f"damping={damping!r}: local damping needs 0 <= alpha < 1")
+    if not (friction >= 0.0):
+        raise InvalidInputError(f"friction={friction!r}: must be >= 0")
+    density = _positive("density", density)
+    layers = _positive("layers", layers, integer=True)
+    measurement_layers = _positive("measurement_layers", measurement_layers, integer=True)
+    return dict(dirs=dirs, frequency=frequency, amplitude=amplitude, cycles=cycles, ramp=ramp,
+                discard_cycles=discard_cycles, steps_per_cycle=steps_per_cycle, samples_per_cycle=samples_per_cycle,
+                every=every, safety=safety, damping=damping, friction=friction, density=density, layers=layers,
+                measurement_layers=measurement_layers)
+
+
 def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitude: float = DEFAULTS["amplitude"],
                       cycles: int = DEFAULTS["cycles"], directions=6, boundary: str = "lees-edwards",
                       seed=None, *, ramp_cycles: int | None = None, discard_cycles: int = 1,
@@ -1019,34 +1067,14 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
 
     t_start = time.perf_counter()
     net = _network(network)
-    if boundary not in BOUNDARIES:
-        raise InvalidInputError(f"boundary={boundary!r}: allowed are {', '.join(BOUNDARIES)}")
-    dirs = _directions(directions)
-    frequency = _positive("frequency", frequency)
-    amplitude = _positive("amplitude", amplitude)
-    if amplitude >= 0.1:
-        raise InvalidInputError(f"amplitude={amplitude!r}: the small-strain protocol needs a strain below 0.1")
-    cycles = _positive("cycles", cycles, integer=True)
-    ramp = cycles if ramp_cycles is None else _positive("ramp_cycles", ramp_cycles, integer=True)
-    if isinstance(discard_cycles, bool) or not isinstance(discard_cycles, (int, np.integer)) \
-            or not 0 <= discard_cycles < cycles:
-        raise InvalidInputError(f"discard_cycles={discard_cycles!r}: must be an integer in [0, cycles)")
-    steps_per_cycle = _positive("steps_per_cycle", steps_per_cycle, integer=True, minimum=10)
-    samples_per_cycle = _positive("samples_per_cycle", samples_per_cycle, integer=True, minimum=8)
-    if samples_per_cycle > steps_per_cycle:
-        raise InvalidInputError(f"samples_per_cycle={samples_per_cycle}: at most steps_per_cycle={steps_per_cycle}")
-    every = max(1, steps_per_cycle // samples_per_cycle)
-    steps_per_cycle = every * samples_per_cycle
-    safety = _positive("safety", safety)
-    if safety > 1.0:
-        raise InvalidInputError(f"safety={safety!r}: must be in (0, 1]")
-    if not (0.0 <= damping < 1.0):
-        raise InvalidInputError(f"damping={damping!r}: local damping needs 0 <= alpha < 1")
-    if not (friction >= 0.0):
-        raise InvalidInputError(f"friction={friction!r}: must be >= 0")
-    density = _positive("density", density)
-    layers = _positive("layers", layers, integer=True)
-    measurement_layers = _positive("measurement_layers", measurement_layers, integer=True)
+    o = check_protocol(directions=directions, boundary=boundary, frequency=frequency, amplitude=amplitude,
+                       cycles=cycles, ramp_cycles=ramp_cycles, discard_cycles=discard_cycles,
+                       steps_per_cycle=steps_per_cycle, samples_per_cycle=samples_per_cycle, safety=safety,
+                       damping=damping, friction=friction, density=density, layers=layers,
+                       measurement_layers=measurement_layers)
+    dirs, frequency, amplitude, cycles, ramp = o["dirs"], o["frequency"], o["amplitude"], o["cycles"], o["ramp"]
+    steps_per_cycle, samples_per_cycle, every = o["steps_per_cycle"], o["samples_per_cycle"], o["every"]
+    safety, density, layers, measurement_layers = o["safety"], o["density"], o["layers"], o["measurement_layers"]
     # strength check: the bond loads of an affine shear of the full amplitude along each
     # direction; more than half the bonds beyond their strength means the amplitude is
     # beyond the bond strength (single bonds may break: breakage is part of the model)

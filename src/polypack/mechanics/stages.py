@@ -30,7 +30,7 @@ import numpy as np
 
 from ..errors import InfeasibleError, InvalidInputError
 
-__all__ = ["network_of", "run_elastic", "run_shear", "preflight_3d", "BOND_RULES", "SHEAR_KEYS"]
+__all__ = ["network_of", "run_elastic", "run_shear", "preflight_3d", "preflight_shear", "BOND_RULES", "SHEAR_KEYS"]
 
 BOND_RULES = ("auto", "distance", "protocol")
 
@@ -68,12 +68,36 @@ def network_of(packing, opts, path="analysis.elastic", **strengths):
     return BondNetwork.from_packing(packing, epsilon=opts.get("epsilon", 0.01), **kw), "distance"
 
 
+#: Protocols whose packs carry their own bonds (``packing.meta["bonds"]``).
+BONDING_PROTOCOLS = ("brownian",)
+
+
 def preflight_3d(opts, info, path):
-    """Before a study runs: the exact tensor and the DEM need 3D spheres (``[psd] dim = 3``)."""
+    """Before a study runs: the exact tensor and the DEM need 3D spheres (``[psd] dim = 3``);
+    ``bonds = "protocol"`` needs a protocol that makes bonds (:data:`BONDING_PROTOCOLS`)."""
     dim = info.get("dim", 3)
     if dim != 3:
         raise InvalidInputError(f"{path}: needs 3D spheres in a periodic box; this study's sizes are for dim={dim} "
                                 "([psd] dim)")
+    kind = info.get("protocol")
+    if opts.get("bonds") == "protocol" and kind is not None and kind not in BONDING_PROTOCOLS:
+        raise InvalidInputError(
+            f'{path}.bonds = "protocol": protocol.kind = "{kind}" makes no bonds (only '
+            f'{", ".join(BONDING_PROTOCOLS)} does); use bonds = "distance" or "auto"')
+
+
+def preflight_shear(opts, info, path):
+    """:func:`preflight_3d` and every protocol option of the DEM test
+    (:func:`polypack.mechanics.dem.check_protocol`: an amplitude of 0.1 or more,
+    ``steps_per_cycle`` below ``samples_per_cycle``, ...) before the first realization."""
+    from .dem import check_protocol
+
+    preflight_3d(opts, info, path)
+    kw = {k: opts[k] for k in SHEAR_KEYS if opts.get(k) is not None}
+    d = opts.get("directions")
+    if d is not None:
+        kw["directions"] = d if d == 6 else [tuple(p) for p in d]
+    _prefixed(path, check_protocol, **kw)
 
 
 def _prefixed(path, fn, *args, **kw):
