@@ -67,6 +67,12 @@ def sync_playwright():
     return sp()
 
 
+def _driver_notice(text):
+    """Chromium's own GL driver performance notices (software rendering under load, e.g. "GPU
+    stall due to ReadPixels" when the PNG export reads the canvas back): not errors of the page."""
+    return "GL Driver Message" in text and "Performance" in text
+
+
 class Page:
     """A page with its console errors, page errors and every request it made."""
 
@@ -74,7 +80,7 @@ class Page:
         self.page = browser.new_page(viewport={"width": width, "height": height})
         self.errors, self.requests = [], []
         self.page.on("console", lambda m: self.errors.append(f"console.{m.type}: {m.text}")
-                     if m.type in ("error", "warning") else None)
+                     if m.type in ("error", "warning") and not _driver_notice(m.text) else None)
         self.page.on("pageerror", lambda e: self.errors.append(f"pageerror: {e}"))
         self.page.on("request", lambda r: self.requests.append(r.url))
         self.page.on("requestfailed", lambda r: self.errors.append(f"request failed: {r.url}"))

@@ -276,6 +276,8 @@ def test_interrupted_commands_exit_130(command, tmp_path, monkeypatch, capsys):
         raise KeyboardInterrupt
 
     monkeypatch.setattr(pp.io, "read_with_info", interrupted)
+    # info and convert read through the network-aware reader (a file may hold bonds)
+    monkeypatch.setattr("polypack.io.bonds.read_maybe_network", interrupted)
     args = {"info": ["info", src], "convert": ["convert", src, tmp_path / "b.xyz"],
             "analyze": ["analyze", src, "--json", tmp_path / "r.json"]}[command]
     with pytest.raises(SystemExit) as info:
