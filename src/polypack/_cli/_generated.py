@@ -62,7 +62,7 @@ def command_name(cap) -> str:
 def cli_type(spec):
     """Python type of the flag from the field's check: numbers float, integers int, flags bool, else text."""
     d = spec.describe
-    if d.startswith("integer") or d.startswith("2 (disks)"):
+    if (d.startswith("integer") and "array" not in d) or d.startswith("2 (disks)"):
         return int
     if d.startswith("number") and "array" not in d and " or " not in d:
         return float
@@ -79,12 +79,10 @@ def cli_fields(cap) -> dict:
 def _help(spec) -> str:
     unit = f" \\[{spec.unit}]" if spec.unit else ""  # escaped for rich markup: shows "[N/m]"
     if spec.required:
-        default = "required"
-    elif spec.default is None:
-        default = "unset: the run's own default"
-    else:
-        default = f"default {fmt(spec.default)}"
-    return f"{spec.doc}{unit} ({spec.describe}; {default})."
+        return f"{spec.doc}{unit} ({spec.describe}; required)."
+    if spec.default is None:
+        return f"{spec.doc}{unit} ({spec.describe}; unset: the run's own default)."
+    return f"{spec.doc}{unit} ({spec.describe})."  # typer shows [default: ...]
 
 
 def _parse_text(spec, value):
@@ -99,17 +97,24 @@ def _parse_text(spec, value):
         return value
 
 
-def _field_params(cap, reserved) -> list:
+def _field_params(cap, reserved, short=None) -> list:
+    """One typer option per CLI field (``short``: extra short flags, ``{field: "-c"}``)."""
     params = []
+    short = short or {}
     for key, spec in cli_fields(cap).items():
         if key in reserved:
             raise InvalidInputError(f"{cap.kind} {cap.name!r}: option {key!r} clashes with the command's own "
                                     f"{flag(key)}; rename the field")
         typ = cli_type(spec)
+        # the declared default is the flag's default (typer shows it); None: unset, the run's own default
+        default = None if spec.required or spec.default is None else spec.default
+        if default is not None and typ is str and not isinstance(default, str):
+            default = fmt(default)  # shown and parsed back as in a study file (TOML)
+        extra = [short[key]] if key in short else []
         if typ is bool:
-            opt = typer.Option(None, f"{flag(key)}/--no-{key.replace('_', '-')}", help=_help(spec))
+            opt = typer.Option(default, f"{flag(key)}/--no-{key.replace('_', '-')}", *extra, help=_help(spec))
         else:
-            opt = typer.Option(None, flag(key), help=_help(spec))
+            opt = typer.Option(default, flag(key), *extra, help=_help(spec))
         params.append(inspect.Parameter(key, inspect.Parameter.KEYWORD_ONLY, default=opt, annotation=Optional[typ]))
     return params
 
@@ -136,14 +141,15 @@ def _kw(name, annotation, default, *decls, help=""):
                              default=typer.Option(default, *decls, help=help))
 
 
-def options_from(kind: str, name: str, path: str | None = None):
+def options_from(kind: str, name: str, path: str | None = None, short=None):
     """Decorator of a hand-written command: its option flags are the capability's fields.
 
     The command declares only its own parameters (output, ``--n``, ``--seed`` ...) plus a
     keyword ``options``; the decorator adds one flag per field of the options dataclass
     (as :func:`register_generated` does) and calls the command with ``options`` = the given
     flags checked and resolved like the study table (defaults filled, cross-key checks run).
-    Use it for commands whose output is special (a bonds file, a summary line).
+    Use it for commands whose output is special (a bonds file, a summary line).  ``short``:
+    extra short flags of some fields (``{"volume_fraction": "-c"}``).
     """
 
     def deco(func):
@@ -155,7 +161,7 @@ def options_from(kind: str, name: str, path: str | None = None):
         own = [p.replace(kind=inspect.Parameter.KEYWORD_ONLY, annotation=hints.get(p.name, p.annotation))
                for p in inspect.signature(func).parameters.values() if p.name != "options"]
         names = {p.name for p in own}
-        fields = _field_params(cap, names)
+        fields = _field_params(cap, names, short)
 
         def command(**kw):
             mine = {k: kw.pop(k) for k in names}

@@ -254,6 +254,7 @@ def _with_option_fields(func):
     import inspect
     import typing
 
+    from .._validate import fmt
     from ._generated import _help, cli_type, flag
 
     hints = typing.get_type_hints(func)
@@ -265,7 +266,9 @@ def _with_option_fields(func):
         typ = cli_type(spec)
         decl = f"{flag(key)}/--no-{key.replace('_', '-')}" if typ is bool else flag(key)
         fields.append(inspect.Parameter(key, inspect.Parameter.KEYWORD_ONLY, annotation=Optional[typ],
-                                        default=typer.Option(None, decl, help=f"\\[{', '.join(users)}] " + _help(spec))))
+                                        default=typer.Option(None, decl, help=f"\\[{', '.join(users)}] " + _help(spec),
+                                                             show_default=False if spec.default is None
+                                                             else fmt(spec.default))))
 
     def command(**kw):
         mine = {k: kw.pop(k) for k in names}

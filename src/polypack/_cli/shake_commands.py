@@ -8,6 +8,8 @@ from typing import List, Optional
 
 import typer
 
+from ._generated import options_from
+
 
 def _floats(values):
     if not values:
@@ -70,6 +72,7 @@ def register(app: typer.Typer) -> None:
                 typer.echo(f"  g_{key}(contact): {vals[0]:.3f} -> {vals[-1]:.3f}")
 
     @app.command("scrm")
+    @options_from("protocol", "scrm", short={"volume_fraction": "-c", "global_shakes": "-M"})
     def scrm_command(
         sizes: Optional[Path] = typer.Argument(
             None, help="Size-set CSV (radius[,species]) as written by `polypack psd`; or use --n/--radius."
@@ -79,23 +82,14 @@ def register(app: typer.Typer) -> None:
         radius: float = typer.Option(1.0, "--radius", help="Radius (of the large spheres for a bimodal mix)."),
         size_ratio: Optional[float] = typer.Option(None, "--size-ratio", help="Bimodal λ = a2/a1 <= 1."),
         volume_ratio: Optional[float] = typer.Option(None, "--volume-ratio", help="Bimodal ξ = c2/c1."),
-        volume_fraction: float = typer.Option(api_default(_scrm, "volume_fraction"), "--volume-fraction", "-c",
-                                              help="Target volume fraction."),
-        growth_steps: int = typer.Option(api_default(_scrm, "growth_steps"), "--growth-steps",
-                                         help="Growth stages up to the target."),
-        start_fraction: Optional[float] = typer.Option(None, "--start-fraction", help="First stage fraction."),
-        stage_shakes: int = typer.Option(api_default(_scrm, "stage_shakes"), "--stage-shakes",
-                                         help="Global shakes after each growth stage."),
-        global_shakes: int = typer.Option(api_default(_scrm, "global_shakes"), "--global-shakes", "-M",
-                                          help="Global shakes at the target (M)."),
-        shake_radius: Optional[List[float]] = typer.Option(None, "--shake-radius", help="R_sh; repeat per species."),
-        max_trials: Optional[List[int]] = typer.Option(None, "--max-trials", help="N_sh; repeat per species."),
-        method: str = typer.Option(api_default(_shake, "method"), "--method", help="paper, collision or metropolis."),
-        growth_rate: Optional[float] = typer.Option(None, "--growth-rate", help="Dimensionless growth rate Γ."),
         seed: Optional[int] = typer.Option(None, "--seed", help="Random seed (recorded in the output)."),
         progress: Optional[bool] = typer.Option(None, "--progress/--no-progress", help="Progress bar."),
+        options: dict = None,
     ):
-        """SCRM: Lubachevsky–Stillinger growth interleaved with shaking, then M global shakes."""
+        """SCRM: Lubachevsky–Stillinger growth interleaved with shaking, then M global shakes.
+
+        The SCRM flags are the \\[protocol] keys of kind = "scrm" (docs/reference.md).
+        """
         from types import SimpleNamespace
 
         import numpy as np
@@ -117,12 +111,10 @@ def register(app: typer.Typer) -> None:
             radii, species = sizes_from_options(n, radius, size_ratio, volume_ratio)
         if species is None:
             species = np.zeros(len(radii), np.int64)
-        pk = scrm(
-            SimpleNamespace(radii=radii, species=species), volume_fraction=volume_fraction, seed=seed,
-            growth_steps=growth_steps, start_fraction=start_fraction, stage_shakes=stage_shakes,
-            global_shakes=global_shakes, growth_rate=growth_rate, progress=progress, method=method,
-            shake_radius=_floats(shake_radius), max_trials=_floats(max_trials), monitor=ContactValueMonitor(),
-        )
+        from ..generate._capabilities import scrm_kwargs
+
+        pk = scrm(SimpleNamespace(radii=radii, species=species), seed=seed, progress=progress,
+                  monitor=ContactValueMonitor(), **scrm_kwargs(options))  # the flags are SCRMOptions' fields
         io.write(output, pk)
         sh, rec = pk.meta["shake"], pk.meta["scrm"]
         typer.echo(

@@ -24,8 +24,11 @@ def _shake_fields():
     """The options of the global shakes, shared by ``crm`` and ``scrm`` (``api``: the keyword of
     :func:`polypack.shake` when it differs from the field name)."""
     return dict(
-        shake_radius=option(None, v.positive, "shake-window radius R_sh in units of the sphere radius", unit="a"),
-        max_trials=option(None, v.int_min(1), "trial moves per sphere and global shake N_sh"),
+        shake_radius=option(None, v.number_or_list(v.positive),
+                            "shake-window radius R_sh in units of the sphere radius (one per species or one for all)",
+                            unit="a"),
+        max_trials=option(None, v.number_or_list(v.int_min(1)),
+                          "trial moves per sphere and global shake N_sh (one per species or one for all)"),
         shake_method=option(None, v.choice("paper", "collision", "metropolis"), "shaking variant", api="method"),
         adaptive=option(None, v.boolean, "adapt R_sh towards a target acceptance"),
     )
@@ -57,9 +60,9 @@ class SCRMOptions:
     shake_method: str = _shake_fields()["shake_method"]
     adaptive: bool = _shake_fields()["adaptive"]
     schedule: list = option(None, v.schedule, "increasing volume fractions of the growth stages (target appended)")
-    growth_steps: int = option(None, v.int_min(1), "number of growth stages from start_fraction (default 10)")
+    growth_steps: int = option(10, v.int_min(1), "number of growth stages from start_fraction", fill=False)
     start_fraction: float = option(None, v.fraction_open, "first stage fraction (default 0.8 c)")
-    stage_shakes: int = option(None, v.int_min(0), "global shakes after each growth stage (default 1)")
+    stage_shakes: int = option(1, v.int_min(0), "global shakes after each growth stage", fill=False)
 
 
 def shake_options(pr: dict) -> dict:
@@ -90,18 +93,20 @@ def run_scrm(sizes, pr: dict, seed, monitor=None):
     from .shake import scrm
 
     s_pack, _ = seed.spawn(2)
-    kw = dict(global_shakes=int(pr.get("global_shakes", 0)), monitor=monitor, **shake_options(pr))
-    if "growth_rate" in pr:
-        kw["growth_rate"] = pr["growth_rate"]
-    for key in ("growth_steps", "start_fraction", "stage_shakes"):
-        if key in pr:
-            kw[key] = pr[key]
+    return scrm(sizes, seed=s_pack, progress=False, monitor=monitor, **scrm_kwargs(pr))
+
+
+def scrm_kwargs(pr: dict) -> dict:
+    """Keyword arguments of :func:`polypack.scrm` from a resolved ``scrm`` table (also ``polypack scrm``):
+    the target is appended to a ``schedule`` that stops below it."""
+    kw = {k: x for k, x in pr.items() if k not in SHAKE_KEYWORDS and k != "schedule"}  # fields = keywords
+    kw.update(shake_options(pr), global_shakes=int(pr.get("global_shakes", 0)))
     if "schedule" in pr:
         sched = list(pr["schedule"])
         if sched[-1] < pr["volume_fraction"]:
             sched.append(pr["volume_fraction"])
         kw["schedule"] = sched
-    return scrm(sizes, volume_fraction=pr["volume_fraction"], seed=s_pack, progress=False, **kw)
+    return kw
 
 
 def check_crm(pr: dict, path: str = "protocol") -> None:
