@@ -195,6 +195,16 @@ def test_random_pack_inside_hs_and_three_point_bounds(pack30):
     assert f.shear == pytest.approx(r.shear, rel=0.05) and f.bulk == pytest.approx(r.bulk, rel=0.03)
 
 
+def test_single_precision_gives_the_same_moduli(pack30):
+    im = pp.io.voxelize(pack30, 16)
+    d = homogenize(im, EPOXY, GLASS, tolerance=1e-5)
+    s = homogenize(im, EPOXY, GLASS, tolerance=1e-5, precision="single")
+    assert s.iterations == d.iterations
+    assert s.stiffness == pytest.approx(d.stiffness, rel=2e-5, abs=2e-5 * d.stiffness.max())
+    with pytest.raises(InvalidInputError, match="precision="):
+        homogenize(im, EPOXY, GLASS, precision="half")
+
+
 def test_voids_and_near_rigid_inclusions_converge(pack30):
     im = pp.io.voxelize(pack30, 16)
     void = homogenize(im, EPOXY, Phase(0.0, 0.0), tolerance=1e-6)

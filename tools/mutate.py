@@ -672,6 +672,54 @@ MUTANTS += [
 ]
 
 
+# issue 34: voxel images and full-field FFT homogenization
+T_HOM = ("tests/test_homogenize.py",)
+T_VOX = ("tests/test_io_voxel.py",)
+T_HST = ("tests/test_stages_homogenize.py",)
+F = "src/polypack/mechanics/fullfield.py"
+MUTANTS += [
+    Mutant("h34-green-c0", F,
+           "c0 = (lam0 + mu0) / (mu0 * (lam0 + 2.0 * mu0))", "c0 = (lam0 + mu0) / (mu0 * (lam0 + mu0))",
+           T_HOM, "wrong formula (Green operator of the reference medium)"),
+    Mutant("h34-engineering-shear", F,
+           "e[m] = 1.0 if m < 3 else 0.5  # engineering shear gamma = 1", "e[m] = 1.0",
+           T_HOM, "wrong convention (tensor shear strain loaded as engineering: C44 doubled)"),
+    Mutant("h34-willot-symbol", F,
+           "k = (2.0 / spacing[a]) * np.sin(th / 2.0)", "k = (2.0 / spacing[a]) * np.sin(th)",
+           T_HOM, "wrong formula (discrete Green operator symbol)"),
+    Mutant("h34-cg-sign", F,
+           "        x += alpha * p\n", "        x -= alpha * p\n",
+           T_HOM, "wrong sign (CG update)"),
+    Mutant("h34-cg-beta", F,
+           "        p *= rr_new / rr\n", "        p *= rr / rr_new\n",
+           T_HOM, "swapped ratio (CG direction update)"),
+    Mutant("h34-inner-weights", F,
+           "_W = (1.0, 1.0, 1.0, 2.0, 2.0, 2.0)", "_W = (1.0, 1.0, 1.0, 1.0, 1.0, 1.0)",
+           T_HOM, "dropped factor (off-diagonal strain counted once in the C0 inner product)"),
+    Mutant("h34-richardson", F,
+           "val = f[-1] + (f[-1] - f[-2]) / (r ** p - 1.0)", "val = f[-1] + (f[-1] - f[-2]) / (r ** p + 1.0)",
+           T_HOM, "wrong sign (Richardson extrapolation)"),
+    Mutant("h34-voxel-centre", K + "voxel.py",
+           "            dx = (i + 0.5) * hx - cx\n", "            dx = i * hx - cx\n",
+           T_VOX + T_HOM, "off-by-half (voxel corner for its centre)"),
+    Mutant("h34-voxel-wrap", K + "voxel.py",
+           "            if ii < 0 or ii >= nx:\n                if periodic[0] == 0:",
+           "            if ii < 0 or ii >= nx:\n                if periodic[0] == 1:",
+           T_VOX + T_HOM, "inverted check (periodic images dropped along x)"),
+    Mutant("h34-subvoxel-inside", K + "voxel.py",
+           "                    if d + half_diag <= r:", "                    if d <= r:",
+           T_VOX, "wrong bound (boundary voxels counted full)"),
+    Mutant("h34-exact-species", "src/polypack/io/voxel.py",
+           "ball_volume(packing.radii[packing.species == s], dim)", "ball_volume(packing.radii, dim)",
+           T_VOX, "wrong selection (every sphere counted for each species)"),
+    Mutant("h34-vti-order", "src/polypack/io/voxel.py",
+           '_b64(lab.reshape(n).ravel(order="F"))', "_b64(lab.reshape(n).ravel())",
+           T_VOX, "wrong memory order (VTK wants x fastest)"),
+    Mutant("h34-stage-ratio", M + "stages.py",
+           "young_ratio=r.young / matrix.young", "young_ratio=r.young / matrix.shear",
+           T_HST, "wrong reference (E*/E0 over the shear modulus)"),
+]
+
 def _kernel_digest(src: Path) -> str:
     h = hashlib.sha1()
     for p in sorted((src / "polypack" / "_kernels").glob("*.py")):

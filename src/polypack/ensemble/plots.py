@@ -510,7 +510,8 @@ def fullfield_moduli_groups(label, records):
 def moduli_vs_c_figure(groups, title=""):
     """E*/E0 and μ*/μ0 against the inclusion fraction c (Figs. 8–9 of 000_2cedc098acbd866b.txt) with
     the full-field points of :func:`polypack.mechanics.homogenize` beside MT, HS, the three-point
-    bounds and MEFM, one colour per run (e.g. CRM and SCRM packs apart).
+    bounds and MEFM, one colour per protocol (e.g. CRM and SCRM packs apart; runs at several c
+    of one protocol share its colour).
 
     ``groups``: dicts from :func:`fullfield_moduli_groups`; points are means over realizations with
     ± 1.96 standard errors; open diamonds are the Richardson continuum estimates of μ*/μ0 with their
@@ -538,26 +539,31 @@ def moduli_vs_c_figure(groups, title=""):
         for ax, q, ref, lab in ((axes[0], "young", m.young, "E*/E0"), (axes[1], "shear", m.shear, "μ*/μ0")):
             ax.plot(cs, [getattr(p, q) / ref for p in mt], "k-", lw=1, label="Mori–Tanaka (= HS lower)")
             ax.plot(cs, [getattr(p, q) / ref for p in hs], "k:", lw=1, label="Hashin–Shtrikman upper")
-            for i, g in enumerate(groups):
-                col = f"C{i}"
+            kinds = list(dict.fromkeys(g["label"].split(" (")[0] for g in groups))
+            seen = set()
+            for g in sorted(groups, key=lambda g: float(np.mean(g["c"]))):
+                kind = g["label"].split(" (")[0]
+                col = f"C{kinds.index(kind)}"
                 c, _ = ms(g["c"])
+                first = kind not in seen
+                seen.add(kind)
                 if "three_point_lower" in g["est"]:
                     lo, _ = ms(g["est"]["three_point_lower"][q])
                     up, _ = ms(g["est"]["three_point_upper"][q])
                     ax.plot([c, c], [lo, up], "-", color=col, lw=5, alpha=0.25,
-                            label=f"three-point bounds, {g['label']}")
+                            label=f"three-point bounds, {kind}" if first else None)
                 if "mefm" in g["est"]:
                     y, e = ms(g["est"]["mefm"][q])
                     ax.errorbar(c - 0.004, y, yerr=e, fmt="s", ms=4, mfc="none", color=col, capsize=2,
-                                label=f"MEFM, {g['label']}")
+                                label=f"MEFM, {kind}" if first else None)
                 y, e = ms(g["ff"][q])
                 ax.errorbar(c + 0.004, y, yerr=e, fmt="o", ms=4.5, color=col, capsize=2,
-                            label=f"full field (FFT), {g['label']}")
+                            label=f"full field (FFT), {kind}" if first else None)
                 if q == "shear" and any(v is not None for v in g["ff"]["shear_ext"]):
                     y, _ = ms(g["ff"]["shear_ext"])
                     err, _ = ms(g["ff"]["shear_ext_err"])
                     ax.errorbar(c + 0.008, y, yerr=err, fmt="D", ms=4, mfc="none", color=col, capsize=2,
-                                label=f"full field, Richardson estimate, {g['label']}")
+                                label=f"full field, Richardson estimate, {kind}" if first else None)
             ax.set_xlabel("inclusion volume fraction c (–)")
             ax.set_ylabel(f"{lab} (–)")
         axes[1].legend(fontsize=6, loc="upper left")

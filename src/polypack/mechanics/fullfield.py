@@ -236,7 +236,7 @@ def _backend(name, workers):
     raise InvalidInputError(f"backend={name!r} is unknown; allowed: 'numpy' (reference), 'cupy' (GPU)")
 
 
-def _wave_directions(xp, shape, spacing, scheme):
+def _wave_directions(xp, shape, spacing, scheme, dtype=np.float64):
     """Unit vectors ``n = k/|k|`` of the (modified) wave vectors on the rfft grid (0 where k = 0)."""
     dim = len(shape)
     comps = []
@@ -262,7 +262,7 @@ def _wave_directions(xp, shape, spacing, scheme):
     small = norm <= 1e-12 * norm.max()
     norm[small] = 1.0
     out = [np.where(small, 0.0, c / norm) for c in comps]
-    return [xp.asarray(o) for o in out]
+    return [xp.asarray(o.astype(dtype)) for o in out]
 
 
 # ----------------------------------------------------------------------------- solvers
@@ -298,11 +298,12 @@ def _cg(apply_a, inner, b, tol, maxit, xp):
 
 def _solve_elastic(lam, mu, spacing, tol, maxit, xp, rfftn, irfftn, lam0, mu0, scheme, keep_fields):
     shape = lam.shape
+    dt = lam.dtype
     axes = (1, 2, 3)
-    n = _wave_directions(xp, shape, spacing, scheme)
+    n = _wave_directions(xp, shape, spacing, scheme, dt)
     c0 = (lam0 + mu0) / (mu0 * (lam0 + 2.0 * mu0))
     mu2 = 2.0 * mu
-    w = xp.asarray(np.array(_W).reshape(6, 1, 1, 1))
+    w = xp.asarray(np.array(_W, dtype=dt).reshape(6, 1, 1, 1))
 
     def apply_c(e):
         tr = e[0] + e[1] + e[2]
@@ -324,20 +325,20 @@ def _solve_elastic(lam, mu, spacing, tol, maxit, xp, rfftn, irfftn, lam0, mu0, s
     def inner(a, b):
         ta = a[0] + a[1] + a[2]
         tb = b[0] + b[1] + b[2]
-        return float(lam0 * xp.sum(ta * tb) + 2.0 * mu0 * xp.sum(w * a * b))
+        return float(lam0 * xp.sum(ta * tb, dtype=xp.float64) + 2.0 * mu0 * xp.sum(w * a * b, dtype=xp.float64))
 
     def apply_a(p):
         return gamma0(apply_c(p))
 
     cols, its, conv, fields = [], [], True, []
     for m in range(6):
-        e = xp.zeros((6,) + tuple(shape))
+        e = xp.zeros((6,) + tuple(shape), dtype=dt)
         e[m] = 1.0 if m < 3 else 0.5  # engineering shear gamma = 1
         b = -gamma0(apply_c(e))
         x, it, ok, _ = _cg(apply_a, inner, b, tol, maxit, xp)
         x += e
         sig = apply_c(x)
-        cols.append([float(xp.mean(sig[c])) for c in range(6)])
+        cols.append([float(xp.mean(sig[c], dtype=xp.float64)) for c in range(6)])
         its.append(it)
         conv = conv and ok
         if keep_fields:
@@ -349,8 +350,9 @@ def _solve_elastic(lam, mu, spacing, tol, maxit, xp, rfftn, irfftn, lam0, mu0, s
 def _solve_conductivity(k, spacing, tol, maxit, xp, rfftn, irfftn, k0, scheme, keep_fields):
     shape = k.shape
     dim = len(shape)
+    dt = k.dtype
     axes = tuple(range(1, dim + 1))
-    n = _wave_directions(xp, shape, spacing, scheme)
+    n = _wave_directions(xp, shape, spacing, scheme, dt)
 
     def gamma0(tau):
         th = rfftn(tau, axes)
@@ -362,20 +364,20 @@ def _solve_conductivity(k, spacing, tol, maxit, xp, rfftn, irfftn, k0, scheme, k
         return irfftn(th, shape, axes)
 
     def inner(a, b):
-        return float(k0 * xp.sum(a * b))
+        return float(k0 * xp.sum(a * b, dtype=xp.float64))
 
     def apply_a(p):
         return gamma0(k * p)
 
     cols, its, conv, fields = [], [], True, []
     for m in range(dim):
-        e = xp.zeros((dim,) + tuple(shape))
+        e = xp.zeros((dim,) + tuple(shape), dtype=dt)
         e[m] = 1.0
         b = -gamma0(k * e)
         x, it, ok, _ = _cg(apply_a, inner, b, tol, maxit, xp)
         x += e
         q = k * x
-        cols.append([float(xp.mean(q[a])) for a in range(dim)])
+        cols.append([float(xp.mean(q[a], dtype=xp.float64)) for a in range(dim)])
         its.append(it)
         conv = conv and ok
         if keep_fields:
@@ -458,7 +460,7 @@ def _reference(values):
 
 def homogenize(packing, matrix, inclusions=None, resolution=64, *, property="elastic", tolerance=1e-6,
                max_iterations=None, resolutions=None, scheme="willot", backend="numpy", workers=None,
-               fields=False, subsamples=0):
+               fields=False, subsamples=0, precision="double"):
     """Effective elastic stiffness (or conductivity) of a pack from its voxel image.
 
     Parameters
@@ -490,6 +492,9 @@ def homogenize(packing, matrix, inclusions=None, resolution=64, *, property="ela
         FFT threads (``scipy.fft`` ``workers``; default all CPUs).
     fields : bool
         Keep the local strain (gradient) field of every load case.
+    precision : {"double", "single"}
+        Field arithmetic and FFTs in float64 (default) or float32 (half the memory, faster
+        transforms; inner products still accumulate in float64; use ``tolerance >= 1e-5``).
     subsamples : int
         Passed to :func:`polypack.io.voxelize` (only the reported sub-voxel fraction; the
         solve uses the label image).
@@ -525,7 +530,7 @@ def homogenize(packing, matrix, inclusions=None, resolution=64, *, property="ela
             raise InvalidInputError("resolutions=... needs a Packing (an image has one resolution)")
         runs = [homogenize(packing, matrix, inclusions, r, property=property, tolerance=tol,
                            max_iterations=max_iterations, scheme=scheme, backend=backend, workers=workers,
-                           fields=fields and r == res[-1], subsamples=subsamples) for r in res]
+                           fields=fields and r == res[-1], subsamples=subsamples, precision=precision) for r in res]
         best = runs[-1]
         keys = ("bulk", "shear") if property == "elastic" else ("mean_conductivity",)
         best.convergence = [{"resolution": list(r.resolution), "iterations": int(max(r.iterations)),
@@ -536,6 +541,9 @@ def homogenize(packing, matrix, inclusions=None, resolution=64, *, property="ela
         best.extrapolated = {k: richardson(res, [getattr(r, k) for r in runs]) for k in keys}
         return best
 
+    if precision not in ("double", "single"):
+        raise InvalidInputError(f"precision={precision!r} must be 'double' or 'single'")
+    dtype = np.float64 if precision == "double" else np.float32
     xp, rfftn, irfftn, to_numpy = _backend(backend, workers)
     labels, spacing, fractions = _image(packing, resolution, subsamples)
     if property == "elastic" and labels.ndim != 3:
@@ -558,8 +566,8 @@ def homogenize(packing, matrix, inclusions=None, resolution=64, *, property="ela
         ks = [p.bulk for p in mats]
         gs = [p.shear for p in mats]
         k0, g0 = _reference(ks), _reference(gs)
-        lam_t = xp.asarray(np.array([k - 2.0 * g / 3.0 for k, g in zip(ks, gs)]))
-        mu_t = xp.asarray(np.array(gs))
+        lam_t = xp.asarray(np.array([k - 2.0 * g / 3.0 for k, g in zip(ks, gs)], dtype=dtype))
+        mu_t = xp.asarray(np.array(gs, dtype=dtype))
         lam, mu = lam_t[lab], mu_t[lab]
         del lab
         cmat, its, conv, flds = _solve_elastic(lam, mu, spacing, tol, maxit, xp, rfftn, irfftn,
@@ -569,7 +577,7 @@ def homogenize(packing, matrix, inclusions=None, resolution=64, *, property="ela
                           asymmetry=asym, reference={"bulk": k0, "shear": g0})
     else:
         k0 = _reference(mats)
-        kf = xp.asarray(np.array(mats))[lab]
+        kf = xp.asarray(np.array(mats, dtype=dtype))[lab]
         del lab
         cmat, its, conv, flds = _solve_conductivity(kf, spacing, tol, maxit, xp, rfftn, irfftn, k0, scheme, fields)
         asym = float(np.abs(cmat - cmat.T).max() / max(np.abs(cmat).max(), 1e-300))

@@ -232,7 +232,8 @@ def homogenize_record(packing, matrix, inclusions, opts, name="custom"):
 
     res = opts.get("resolution", 48)
     kw = dict(tolerance=opts.get("tolerance", 1e-6), max_iterations=opts.get("max_iterations", 5000),
-              scheme=opts.get("scheme", "willot"), workers=opts.get("workers"))
+              scheme=opts.get("scheme", "willot"), workers=opts.get("workers"),
+              precision=opts.get("precision", "double"))
     incs = inclusions if len(inclusions) > 1 else inclusions[0]
     if isinstance(res, list):
         r = homogenize(packing, matrix, incs, res[-1], resolutions=res, **kw)

@@ -431,7 +431,7 @@ def run_figures(run: RunFolder, packs, *, theory=False, compare=(), plots_dir=No
              "(Figs. 8–9 of seed 000): the full-field FFT solution of each pack's voxel image "
              "([analysis.homogenize], docs/fullfield.md; filled circles, mean ± 1.96 SE over realizations; diamonds: "
              "Richardson continuum estimate with its discretization error) beside Mori–Tanaka, the Hashin–Shtrikman "
-             "upper bound, the three-point bounds from the packs' ζ2, η2 (bars) and MEFM (squares); one colour per run.")
+             "upper bound, the three-point bounds from the packs' ζ2, η2 (bars) and MEFM (squares); one colour per protocol (compare runs with --compare).")
     if pk0 is not None:
         try:
             from ..ensemble.stages import make_model
