@@ -62,7 +62,11 @@ def test_bad_input_is_rejected_with_the_value():
 
 
 def test_writers_round_trip(tmp_path):
-    im = pp.io.voxelize(_two_spheres(), 16, subsamples=2)
+    # an image without symmetry between the axes (a transposed write would not match)
+    pk = pp.Packing(np.array([[0.3, 1.1, 1.7], [1.5, 0.4, 0.6]]), np.array([0.3, 0.2]), np.array([2.0, 2.0, 2.0]),
+                    species=[0, 1])
+    im = pp.io.voxelize(pk, 16, subsamples=2)
+    assert not np.array_equal(im.labels, im.labels.transpose(2, 1, 0))
     pp.io.write_image(tmp_path / "a.npy", im)
     assert np.array_equal(np.load(tmp_path / "a.npy"), im.labels)
     pp.io.write_image(tmp_path / "a.tif", im)
