@@ -168,3 +168,22 @@ def test_export_network_writes_the_epsilon_network(tmp_path, capsys, net):
             assert "normal_force" in b["bond_data"] and "nonaffine_displacement" in b["particle_data"]
     code, _, err = run(capsys, "export-network", pack, pack)
     assert code == 1 and "is the input file" in err
+
+
+@pytest.mark.parametrize("args", [
+    ("shake", "{pack}", "{pack}", "--global-shakes", "1"),
+    ("analyze", "{pack}", "--json", "{pack}"),
+    ("moduli", "{pack}", "--json", "{pack}", "--matrix", "3e9,0.4", "--inclusions", "70e9,0.2"),
+    ("pack", "{sizes}", "-o", "{sizes}", "-c", "0.3"),
+    ("scrm", "{sizes}", "-o", "{sizes}"),
+    ("elastic", "{pack}", "--json", "{pack}"),
+    ("convert", "{pack}", "{pack}"),
+])
+def test_no_command_writes_onto_its_input(tmp_path, capsys, net, args):
+    pack, sizes = tmp_path / "p.gsd", tmp_path / "s.csv"
+    pp.io.write(pack, net.packing)
+    sizes.write_text("radius\n" + "0.5\n" * 20)
+    before = {p: p.read_bytes() for p in (pack, sizes)}
+    code, _, err = run(capsys, *[a.format(pack=pack, sizes=sizes) for a in args])
+    assert code == 1 and "is the input file" in err and err.count("\n") == 1
+    assert {p: p.read_bytes() for p in (pack, sizes)} == before

@@ -174,11 +174,12 @@ def register(app: typer.Typer) -> None:
     ):
         """Statistical descriptors of a pack (all of them unless some are selected)."""
         from .. import io
-        from .._util import atomic_open, check_output_folder, output_path
+        from .._util import atomic_open, check_new_output, check_output_folder, file_kind, output_path
 
         to_stdout = json_out == "-"
         if json_out is not None and not to_stdout:
             output_path(json_out)  # checked before computing
+            check_new_output(json_out, file_kind(json_out), inputs=(file,), option="--json")
         if plots is not None:
             check_output_folder(plots)
         from ..analysis._base import OVERLAP_TOLERANCE, overlap_policy

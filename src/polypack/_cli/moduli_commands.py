@@ -125,9 +125,12 @@ def register(app: typer.Typer) -> None:
         json_out: Optional[Path] = typer.Option(None, "--json", help="Write the summary as JSON here."),
     ):
         """Effective moduli of a pack: MT, SC, HS, three-point bounds (zeta2, eta2 of the pack) and MEFM (its RDFs)."""
-        from .._util import atomic_open
+        from .._util import atomic_open, check_new_output, file_kind
 
         from ..errors import InvalidInputError
+
+        if json_out is not None:  # checked before computing
+            check_new_output(json_out, file_kind(json_out), inputs=(path,), option="--json")
 
         if (matrix is None) != (not inclusions):
             raise InvalidInputError("give both --matrix and --inclusions, or neither (a run folder whose study has "

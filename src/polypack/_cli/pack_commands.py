@@ -123,10 +123,13 @@ def register(app: typer.Typer) -> None:
         from ..generate.lubachevsky import pack
 
         # every destination is checked before anything is computed
+        from .._util import check_new_output, file_kind
+
         for path in (output, checkpoint):
             if path is not None:
                 io.format_for(path)
                 output_path(path)
+                check_new_output(path, file_kind(path), inputs=(sizes,), option="-o")
         if output is not None and checkpoint is not None and output_path(output) == output_path(checkpoint):
             raise InvalidInputError(f"--checkpoint {checkpoint}: must differ from --output (a partial pack is never "
                                     "saved under the requested name)")

@@ -46,12 +46,13 @@ def register(app: typer.Typer) -> None:
     ):
         """Shake a pack: the seed's Monte-Carlo shaking (or collision-limited / Metropolis moves)."""
         from .. import io
-        from .._util import output_path
+        from .._util import check_new_output, file_kind, output_path
         from ..analysis import ContactValueMonitor
         from ..generate.shake import shake as run_shake
 
         io.format_for(target)
         output_path(target)  # checked before shaking
+        check_new_output(target, file_kind(target), inputs=(source,), option="OUT")
         pk = io.read(source)
         out = run_shake(
             pk, global_shakes=global_shakes, shake_radius=_floats(shake_radius), max_trials=_floats(max_trials),
@@ -103,6 +104,9 @@ def register(app: typer.Typer) -> None:
 
         io.format_for(output)
         output_path(output)  # checked before packing
+        from .._util import check_new_output, file_kind
+
+        check_new_output(output, file_kind(output), inputs=(sizes,), option="-o")
         if sizes is not None:
             if not sizes.exists():
                 raise InvalidInputError(f"size-set file {sizes} does not exist")

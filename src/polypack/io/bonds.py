@@ -216,7 +216,9 @@ def _write_gsd(path, packing, i, j, shift, btype, bdata, pdata, meta_json):
 def _read_gsd(path, frame=-1):
     import gsd.hoomd
 
-    pk, info = _gsd.read_with_info(path, frame=frame)
+    from . import read_with_info  # the package's reader (one entry point for every pack read)
+
+    pk, info = read_with_info(path, "gsd", frame=frame)
     with gsd.hoomd.open(str(path), "r") as traj:
         snap = traj[info["frame"]]
         m = int(snap.bonds.N)
@@ -271,7 +273,9 @@ def _write_lammps(path, packing, i, j, shift, btype, meta_json, opts):
 def _read_lammps(path):
     from ._common import as_int_column, parse_table, read_text
 
-    pk, info = _lammps.read_with_info(path)
+    from . import read_with_info
+
+    pk, info = read_with_info(path, "lammps")
     lines = read_text(path).split("\n")[:-1]
     meta = {}
     for line in lines[1:]:
