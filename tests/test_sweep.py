@@ -168,7 +168,7 @@ def test_report_reads_the_elastic_stage(tmp_path):
 def test_dynamic_moduli_from_the_shear_stage():
     """sweep.modulus = "shear": G'p is the mean of the per-direction storage moduli of the
     [analysis.shear] record and its spread their standard deviation (the seed's error bars)."""
-    from polypack.ensemble.sweep import _structure_values
+    from polypack.studies.seed003_heterogeneity import _structure_values
 
     rec = {"analysis": {"pores": {"fit": {"seed": {"a": 0.45, "b": 0.01}}}, "contacts": {"coordination": 4.6},
                         "shear": {"coordination": 4.5, "direction": {
@@ -194,7 +194,7 @@ def _fake_run(folder, protocol):
 def test_sets_are_labelled_by_protocol_kind_and_value(tmp_path):
     """The report names every structure set by its study's protocol kind and the value that
     sets it apart (swept value, else the kind's own option), never a fixed "VEM"."""
-    from polypack.ensemble.sweep import _seed_row, set_label
+    from polypack.studies.seed003_heterogeneity import _seed_row, set_label
 
     bd = _fake_run(tmp_path / "surface_potential=0.014", {"kind": "brownian", "surface_potential": 0.014})
     vem = _fake_run(tmp_path / "v", {"kind": "vem", "void_ratio": 0.5})

@@ -74,7 +74,8 @@ __all__ = [
 
 # Lazy attributes: subpackages and generator functions are imported on first use, so
 # ``import polypack`` stays fast and numba kernels compile only when needed.
-_LAZY_MODULES = {"io", "psd", "analysis", "generate", "neighbors", "ensemble", "study", "mechanics", "report"}
+_LAZY_MODULES = {"io", "psd", "analysis", "generate", "neighbors", "ensemble", "study", "mechanics", "report",
+                 "studies"}
 _LAZY_FUNCS = {
     "pack": ("polypack.generate.lubachevsky", "pack"),
     "shake": ("polypack.generate.shake", "shake"),

@@ -1,0 +1,376 @@
+"""Seed 003's heterogeneity study: Table 2, Figs. 2 and 6 and the power law Eq. (7) of 003_873b69fc71c74cf6.txt.
+
+Run by a swept study with ``[sweep] report = "heterogeneity"`` (:mod:`polypack.ensemble.sweep`), it
+writes ``<out>/heterogeneity/``:
+
+* ``table2.csv`` / ``table2.md``: per value N_V/N, DOH ``a`` and ``b`` (Eq. (6) of
+  003_873b69fc71c74cf6.txt, printed form, from ``[analysis.pores]``), coordination ``C``
+  (``[analysis.contacts]``) and ``G'p`` in MPa (mean ± standard deviation over the
+  structures' shear moduli C44, C55, C66, the static counterpart of the seed's six
+  shear directions, and over realizations);
+* ``fit.json``: the power law Eq. (7) of 003_873b69fc71c74cf6.txt over every structure of
+  every set (:func:`polypack.analysis.power_law_fit`);
+* ``fig2.png`` (C against a) and ``fig6.png`` (G'p against a with the fit), each with the
+  seed's Table 2 values beside the measurement.
+
+Every set (each swept value, each included folder) is labelled by its study's protocol (its
+registered display name, :attr:`polypack.registry.Capability.title`) and the value that tells it
+apart (:func:`set_label`: ``"VEM N_V/N = 0.5"``, ``"Brownian Ψ0 = 14 mV"``) and sits beside the
+seed's Table 2 row of the same kind and value; ``examples/heterogeneity_bd.toml`` fits a
+Brownian-dynamics Ψ0 series together with the VEM set.
+
+``G'p`` comes from ``[analysis.elastic]`` records when the study has that stage
+(``plate_shear_modulus`` / ``shear_moduli``); otherwise the report computes it from each
+saved pack through :mod:`polypack.mechanics` (bonds at ``epsilon``, the exact static tensor
+of :func:`polypack.mechanics.elastic_tensor`) with the options of ``[sweep.elastic]``
+(defaults: epsilon 0.01, kn 100 N/m, ks 10 N/m, Table 1 of the seed).  Moduli are in Pa
+when the pack is in metres (the seed's r0 = 0.25 µm).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InvalidInputError
+
+__all__ = ["SEED_TABLE2", "ELASTIC_DEFAULTS", "FLOPPY_FLOOR", "heterogeneity_report", "set_label"]
+
+#: Table 2 of 003_873b69fc71c74cf6.txt (N = 8000, Φ = 0.4, kn = 100 N/m): VEM rows
+#: (N_V/N, a, C, G'p MPa, error) and BD rows (Ψ0 mV, a, C, G'p MPa, error).
+SEED_TABLE2 = {
+    "vem": [(1000 / 8000, 0.594, 4.68, 1.73, 0.383), (2000 / 8000, 0.521, 4.71, 1.83, 0.136),
+            (4000 / 8000, 0.467, 4.69, 1.62, 0.190), (8000 / 8000, 0.418, 4.69, 1.32, 0.237),
+            (13000 / 8000, 0.399, 4.69, 1.32, 0.267), (16000 / 8000, 0.392, 4.61, 1.17, 0.231)],
+    "bd": [(0.0, 0.373, 4.52, 0.480, 0.049), (12.0, 0.404, 4.84, 1.19, 0.141), (13.0, 0.410, 4.75, 1.05, 0.124),
+           (14.0, 0.472, 5.08, 1.46, 0.120), (15.0, 0.536, 4.97, 1.62, 0.213)],
+}
+
+#: ``[sweep.elastic]`` defaults of the report's own static tensor (Table 1 of the seed).
+ELASTIC_DEFAULTS = {"epsilon": 0.01, "normal_stiffness": 100.0, "shear_stiffness": 10.0}
+
+
+def _records(folder: Path):
+    from ..ensemble.runner import is_complete
+
+    recs = []
+    for p in sorted((folder / "realizations").glob("r[0-9]*.json")):
+        rec = json.loads(p.read_text())
+        if is_complete(rec):
+            recs.append((rec, p.with_suffix(".gsd")))
+    return recs
+
+
+#: A structure whose static shear modulus is below this fraction of its affine (Voigt) modulus
+#: is floppy (no rigid cluster spans the box: G'p = 0).  The solvers of
+#: :func:`polypack.mechanics.elastic_tensor` agree to ~1e-8 of the affine scale, so a smaller
+#: value is round-off of a zero modulus (e.g. 1e-11 MPa against an affine 22 MPa), and fitting
+#: its logarithm would wreck the power law of Eq. (7) of 003_873b69fc71c74cf6.txt.
+FLOPPY_FLOOR = 1e-6
+
+
+def _structure_values(rec, gsd, elastic, modulus="elastic"):
+    """``(a, b, C, G'p, G'p_sd, source, G_affine)`` of one structure.
+
+    ``modulus = "shear"`` takes the dynamic storage moduli of the ``[analysis.shear]``
+    record (mean and spread over its shear directions, as the seed's error bars);
+    ``"elastic"`` the static shear moduli C44, C55, C66 of ``[analysis.elastic]`` or, when
+    the record has none, of the report's own :func:`polypack.mechanics.elastic_tensor`.
+    ``G_affine`` is the affine shear modulus of the bonded network when known (the reference
+    of :data:`FLOPPY_FLOOR`), else NaN.
+    """
+    ana = rec.get("analysis", {})
+    pores = ana.get("pores")
+    if pores is None:
+        raise InvalidInputError("heterogeneity report: the study needs [analysis.pores] (DOH, Eq. 6)")
+    fit = pores["fit"]["seed"]
+    a, b = float(fit["a"]), float(fit["b"])
+    c = ana.get("contacts", {}).get("coordination")
+    el = ana.get("elastic")
+    sh = ana.get("shear")
+    g_aff = float(el.get("affine_shear_modulus", math.nan)) if isinstance(el, dict) else math.nan
+    if modulus == "shear":
+        if not isinstance(sh, dict) or "direction" not in sh:
+            raise InvalidInputError("heterogeneity report: sweep.modulus = \"shear\" needs [analysis.shear] in the study")
+        if sh.get("status") == "floppy":
+            g3 = np.zeros(1)  # G'p = 0: no DEM was run
+        else:  # not converged: None -> NaN, left out of the fit and counted
+            g3 = np.asarray([np.nan if d["storage_modulus"] is None else d["storage_modulus"]
+                             for d in sh["direction"].values()] or [np.nan], dtype=np.float64)
+        src = "[analysis.shear] (dynamic G')"
+        if c is None:
+            c = sh.get("coordination")
+    elif isinstance(el, dict) and ("shear_moduli" in el or "plate_shear_modulus" in el):
+        g3 = np.asarray(el.get("shear_moduli", [el.get("plate_shear_modulus")]), dtype=np.float64)
+        src = "[analysis.elastic]"
+        if c is None:
+            c = el.get("coordination")
+    else:
+        from .. import io
+        from ..mechanics import BondNetwork, elastic_tensor
+
+        pk = io.read(str(gsd))
+        net = BondNetwork.from_packing(pk, epsilon=elastic["epsilon"], normal_stiffness=elastic["normal_stiffness"],
+                                       shear_stiffness=elastic["shear_stiffness"])
+        et = elastic_tensor(net)
+        g3 = np.asarray(et.shear_moduli, dtype=np.float64)
+        g_aff = float(et.affine_shear_modulus)
+        src = "report (pp.mechanics.elastic_tensor)"
+        if c is None:
+            c = net.coordination
+    return a, b, float(c) if c is not None else float("nan"), float(g3.mean()), float(g3.std(ddof=0)), src, g_aff
+
+
+_LEGACY_WORDS = {"ls": "LS", "shake": "shaken"}  # kinds of run folders written before the registry
+
+
+def _kind_word(kind) -> str:
+    """The protocol's registered display name (``register(..., label=...)``)."""
+    from .. import registry
+    from ..errors import PolypackError
+
+    try:
+        return registry.get("protocol", str(kind)).title
+    except PolypackError:
+        return _LEGACY_WORDS.get(kind, str(kind))
+#: The option that tells a set of the seed's protocols apart (with its label form, :func:`_value_words`)
+#: when a folder is included without a swept value.
+_KIND_KEYS = {"vem": "void_ratio", "brownian": "surface_potential"}
+
+
+def _protocol(folder: Path) -> dict:
+    """The ``[protocol]`` table of a run folder (``study.resolved.json``); ``{}`` when absent."""
+    try:
+        with open(folder / "study.resolved.json", encoding="utf-8") as fh:
+            doc = json.load(fh)
+    except (OSError, ValueError):
+        return {}
+    prot = doc.get("study", {}).get("protocol", {})
+    return prot if isinstance(prot, dict) else {}
+
+
+def _value_words(key: str, v) -> str:
+    if key == "surface_potential" and isinstance(v, (int, float)):
+        return f"Ψ0 = {1e3 * v:g} mV"
+    if key == "void_ratio" and isinstance(v, (int, float)):
+        return f"N_V/N = {v:g}"
+    return f"{key} = {v:g}" if isinstance(v, (int, float)) and not isinstance(v, bool) else f"{key} = {v}"
+
+
+def set_label(folder, parameter=None, value=None):
+    """``(label, kind, key, value)`` of one structure set (run folder) in the heterogeneity report.
+
+    The label names the protocol kind of the folder's study and the value that tells the
+    set apart: the swept ``parameter`` = ``value`` when given, else the kind's own option
+    (``void_ratio`` of VEM, ``surface_potential`` of Brownian dynamics), e.g.
+    ``"VEM N_V/N = 0.5"`` or ``"Brownian Ψ0 = 14 mV"``; a folder without a study record
+    is labelled by its name.
+    """
+    folder = Path(folder)
+    prot = _protocol(folder)
+    kind = prot.get("kind")
+    if kind is None:
+        return folder.name, None, None, folder.name
+    word = _kind_word(kind)
+    if parameter is not None:
+        key = parameter.split(".")[-1]
+    else:
+        key = _KIND_KEYS.get(kind)
+        value = prot.get(key) if key is not None else None
+    if key is None or value is None:
+        return f"{word} ({folder.name})", kind, None, folder.name
+    return f"{word} {_value_words(key, value)}", kind, key, value
+
+
+def _seed_row(kind, key, value):
+    """The seed's Table 2 row of a set (VEM by N_V/N, BD by Ψ0), or None."""
+    if not isinstance(value, (int, float)):
+        return None
+    if kind == "vem" and key == "void_ratio":
+        return {round(x[0], 6): x for x in SEED_TABLE2["vem"]}.get(round(value, 6))
+    if kind == "brownian" and key == "surface_potential":
+        return {round(x[0], 3): x for x in SEED_TABLE2["bd"]}.get(round(1e3 * value, 3))
+    return None
+
+
+def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=(), elastic=None, modulus="elastic",
+                         fmt="png"):
+    """Table 2, Figs. 2 and 6 and the fit of Eq. (7) of 003_873b69fc71c74cf6.txt over the structures of ``sets``.
+
+    ``sets`` is a list of ``(value, run_folder)`` of the swept ``parameter``; ``include``
+    more run folders (other structure sets, e.g. SCRM or Brownian-dynamics packs at
+    Φ = 0.4) that enter the fit and the figures.  Every set is labelled by its protocol
+    kind and value (:func:`set_label`, e.g. ``"VEM N_V/N = 0.5"``, ``"Brownian Ψ0 = 14 mV"``)
+    and compared with the seed's Table 2 row of that kind and value where there is one.
+    Returns ``{what: path}``.
+    """
+    from .._util import atomic_path, make_folder
+    from ..analysis.powerlaw import power_law_fit
+
+    elastic = dict(ELASTIC_DEFAULTS, **(elastic or {}))
+    rep = Path(out) / "heterogeneity"
+    make_folder(rep)
+    rows, points = [], []
+    sources = set()
+    unconverged = []
+    groups = [(Path(f), *set_label(f, parameter, v)) for v, f in sets] + [(Path(f), *set_label(f)) for f in include]
+    for folder, label, kind, vkey, v in groups:
+        vals, floppy = [], 0
+        for rec, gsd in _records(folder):
+            a, b, c, g, gsd_sd, src, g_aff = _structure_values(rec, gsd, elastic, modulus)
+            sources.add(src)
+            if not math.isfinite(g):  # a dynamic test that did not converge: no modulus
+                unconverged.append(f"{label} r{rec['index']:04d}")
+                continue
+            rigid = bool(g > FLOPPY_FLOOR * g_aff) if math.isfinite(g_aff) else bool(g > 0)
+            if not rigid:  # a zero modulus: its round-off is not reported as a value
+                g, gsd_sd = 0.0, 0.0
+                floppy += 1
+            vals.append((a, b, c, g, gsd_sd))
+            points.append({"set": label, "kind": kind, "parameter": vkey, "value": v, "index": rec["index"],
+                           "a": a, "b": b, "C": c,
+                           "G_Pa": g, "G_sd_Pa": gsd_sd, "rigid": rigid})
+        if not vals:
+            continue
+        arr = np.asarray(vals)
+        nr = arr.shape[0]
+        se = (lambda x: float(x.std(ddof=1) / math.sqrt(nr)) if nr > 1 else float("nan"))
+        gall = np.sqrt(np.mean(arr[:, 4] ** 2) + (arr[:, 3].var(ddof=1) if nr > 1 else 0.0))
+        rows.append({"set": label, "kind": kind, "parameter": vkey, parameter.split(".")[-1]: v, "realizations": nr,
+                     "a": float(arr[:, 0].mean()), "a_se": se(arr[:, 0]), "b": float(arr[:, 1].mean()),
+                     "C": float(np.nanmean(arr[:, 2])), "C_se": se(arr[:, 2]),
+                     "G_MPa": float(arr[:, 3].mean()) * 1e-6, "G_sd_MPa": float(gall) * 1e-6,
+                     "floppy": floppy})
+    if not points:
+        raise InvalidInputError(f"heterogeneity report: no complete realization under {out}")
+    a = np.array([p["a"] for p in points])
+    g = np.array([p["G_Pa"] for p in points]) * 1e-6
+    sd = np.array([p["G_sd_Pa"] for p in points]) * 1e-6
+    fit = None
+    # structures without a rigid cluster (G'p = 0, FLOPPY_FLOOR) lie below a0 and do not enter the fit
+    pos = np.array([p["rigid"] for p in points], dtype=bool)
+    dropped = int(np.count_nonzero(~pos))
+    if np.count_nonzero(pos) >= 3 and np.ptp(a[pos]) > 0:
+        sig = sd[pos] if np.all(sd[pos] > 0) else None
+        fit = power_law_fit(a[pos], g[pos], sigma=sig)
+        fit_note = fit.note
+    else:
+        fit_note = "fewer than 3 structures with G'p > 0 and a range of a: no fit"
+    if dropped:
+        fit_note += (f"; {dropped} floppy structure(s) (G'p below {FLOPPY_FLOOR:g} of the affine modulus: "
+                     f"G'p = 0) left out of the fit")
+    if unconverged:
+        fit_note += (f"; {len(unconverged)} structure(s) without a modulus (a shear test that did not converge, "
+                     "or NaN in an old record) left out: " + ", ".join(unconverged[:8]))
+    files = {}
+    key = parameter.split(".")[-1]
+    cols = ["set", key, "realizations", "a", "a_se", "b", "C", "C_se", "G_MPa", "G_sd_MPa", "floppy"]
+    with atomic_path(rep / "table2.csv") as tmp:
+        with open(tmp, "w") as fh:
+            fh.write(",".join(cols) + "\n")
+            for r in rows:
+                fh.write(",".join(str(r[c]) for c in cols) + "\n")
+    files["table"] = rep / "table2.csv"
+    lines = [f"| set | {key} | P | a | b | C | G'p (MPa) | seed a | seed C | seed G'p (MPa) |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        s = _seed_row(r["kind"], r["parameter"], r[key])
+        sa = f"{s[1]:.3f} | {s[2]:.2f} | {s[3]:.2f} ± {s[4]:.2f}" if s else "– | – | –"
+        lines.append(f"| {r['set']} | {r[key]} | {r['realizations']} | {r['a']:.3f} ± {r['a_se']:.3f} | {r['b']:.3f} | "
+                     f"{r['C']:.2f} | {_g_cell(r)} | {sa} |")
+    lines.append("")
+    lines.append(f"G'p source: {', '.join(sorted(sources))}; bonds at epsilon = {elastic['epsilon']:g}, "
+                 f"kn = {elastic['normal_stiffness']:g} N/m, ks = {elastic['shear_stiffness']:g} N/m.")
+    if fit is not None:
+        lines.append(f"Eq. (7) of 003_873b69fc71c74cf6.txt: a0 = {fit.a0:.4f} ± {fit.a0_err:.4f}, "
+                     f"beta = {fit.beta:.3f} ± {fit.beta_err:.3f}, A = {fit.prefactor:.3g} ± "
+                     f"{fit.prefactor_err:.2g} MPa ({fit_note}; without the lowest point a0' = "
+                     f"{fit.a0_without_lowest:.4f}). Seed: a0 = 0.373 ± 0.001, beta = 0.187 ± 0.032.")
+    else:
+        lines.append(fit_note)
+    with atomic_path(rep / "table2.md") as tmp:
+        Path(tmp).write_text("\n".join(lines) + "\n")
+    files["table_md"] = rep / "table2.md"
+    with atomic_path(rep / "fit.json") as tmp:
+        Path(tmp).write_text(json.dumps({"fit": fit.to_dict() if fit is not None else None, "note": fit_note,
+                                         "points": points, "rows": rows, "g_source": sorted(sources),
+                                         "elastic": elastic, "units": "MPa"}, indent=1))
+    files["fit"] = rep / "fit.json"
+    files.update(_plots(rep, points, fit, fmt))
+    return files
+
+
+def _g_cell(row):
+    """The G'p cell of a Table 2 row: mean ± spread, and how many structures are floppy."""
+    if row["floppy"] == row["realizations"]:
+        return "0 (floppy)"
+    cell = f"{row['G_MPa']:.3g} ± {row['G_sd_MPa']:.2g}"
+    return cell + (f" ({row['floppy']} of {row['realizations']} floppy)" if row["floppy"] else "")
+
+
+def _plots(rep, points, fit, fmt):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .._util import atomic_path
+
+    files = {}
+    order = {}
+    for p in points:  # sets in report order (swept first), one marker per protocol kind (seed Fig. 6:
+        order.setdefault(p["set"], p.get("kind"))  # circles VEM, triangles BD)
+    sets = list(order)
+    marker = {"vem": "o", "brownian": "^"}
+    # Fig. 2: C against a
+    fig, ax = plt.subplots(figsize=(5, 4))
+    for s in sets:
+        pa = [p["a"] for p in points if p["set"] == s]
+        pc = [p["C"] for p in points if p["set"] == s]
+        ax.plot(pa, pc, marker.get(order[s], "D"), ms=4, label=f"{s} (this run)")
+    for key, mk, lab in (("vem", "s", "seed VEM (Table 2, N = 8000)"), ("bd", "^", "seed BD (Table 2)")):
+        ax.plot([x[1] for x in SEED_TABLE2[key]], [x[2] for x in SEED_TABLE2[key]], mk, mfc="none", color="k",
+                label=lab)
+    ax.set_xlabel("DOH parameter a (Eq. 6), dimensionless")
+    ax.set_ylabel("coordination number C (bonds at ε = 0.01)")
+    ax.set_title("seed 003 Fig. 2: coordination against heterogeneity", fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    with atomic_path(rep / f"fig2.{fmt}") as tmp:
+        fig.savefig(tmp, format=fmt, dpi=130)
+    plt.close(fig)
+    files["fig2"] = rep / f"fig2.{fmt}"
+    # Fig. 6: G'p against a with the fit (legend below the axes: it hid the most heterogeneous points)
+    fig, ax = plt.subplots(figsize=(5.5, 6))
+    for s in sets:
+        sel = [p for p in points if p["set"] == s]
+        ax.errorbar([p["a"] for p in sel], [p["G_Pa"] * 1e-6 for p in sel], yerr=[p["G_sd_Pa"] * 1e-6 for p in sel],
+                    fmt=marker.get(order[s], "D"), ms=4, capsize=2, label=f"{s} (this run)")
+    for key, mk, lab in (("vem", "s", "seed VEM (Table 2)"), ("bd", "^", "seed BD (Table 2)")):
+        ax.errorbar([x[1] for x in SEED_TABLE2[key]], [x[3] for x in SEED_TABLE2[key]],
+                    yerr=[x[4] for x in SEED_TABLE2[key]], fmt=mk, mfc="none", color="k", capsize=2, label=lab)
+    a_all = [p["a"] for p in points] + [x[1] for x in SEED_TABLE2["vem"] + SEED_TABLE2["bd"]]
+    lo, hi = min(a_all) - 0.03, max(a_all) + 0.03
+    if fit is not None and math.isfinite(fit.a0):
+        xs = np.linspace(max(fit.a0, lo), hi, 300)
+        ax.plot(xs, fit(xs), "-", color="C3", label=f"power-law fit (seed eq. 7): a0 = {fit.a0:.3g} ± {fit.a0_err:.2g}, "
+                f"β = {fit.beta:.3g} ± {fit.beta_err:.2g}" + ("" if fit.a0_determined else " (a0 not determined)"))
+        if lo <= fit.a0 <= hi:
+            ax.axvline(fit.a0, ls="--", color="C3", lw=0.8, label="critical DOH a0 (fit)")
+    ax.axvline(0.373, ls=":", color="k", lw=0.8, label="seed a0 = 0.373")
+    ax.set_xlim(lo, hi)
+    ax.set_ylim(bottom=0.0)
+    ax.set_xlabel("DOH parameter a (Eq. 6), dimensionless")
+    ax.set_ylabel("plateau storage modulus G'p (MPa)")
+    ax.set_title("seed 003 Fig. 6: G'p against DOH (r0 = 0.25 µm, kn = 100 N/m);\n"
+                 "bars: spread over the shear directions", fontsize=8)
+    ax.legend(fontsize=6, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2)
+    fig.tight_layout()
+    with atomic_path(rep / f"fig6.{fmt}") as tmp:
+        fig.savefig(tmp, format=fmt, dpi=130)
+    plt.close(fig)
+    files["fig6"] = rep / f"fig6.{fmt}"
+    return files
