@@ -639,6 +639,9 @@ MUTANTS += [
     Mutant("r3-dep3-images", A + "deposits.py",
            "float(box[0]), bool(per[0]))", "float(box[0]), False)",
            T_DPW + T_DEP3, "periodic images ignored"),
+    Mutant("r3-dep3-window-order", A + "deposits.py",
+           "            window = window[[2, 3, 0, 1, 4, 5]]\n", "            pass\n",
+           T_DPW + T_DEP3, "window reported in the swapped axis order (y-periodic)"),
 ]
 
 
