@@ -140,7 +140,8 @@ INDEPENDENT = [
            T_VEM, "wrong power (box of Eq. (5))"),
     # -------------------------------------------------------------------------------- deposits
     Mutant("i-dep-slab-volume", A + "deposits.py",
-           "(hi**3 - lo**3) / 3.0", "(hi**3 - lo**3) / 2.0",
+           "return float(np.sum(np.pi * (r * r * (hi - lo) - (hi**3 - lo**3) / 3.0)))",
+           "return float(np.sum(np.pi * (r * r * (hi - lo) - (hi**3 - lo**3) / 2.0)))",
            T_DEP3, "wrong coefficient (spherical slab)"),
     Mutant("i-dep-surface-bins", A + "deposits.py",
            "bw = 4.0 * float(rad.max()) if bin_width is None", "bw = 2.0 * float(rad.max()) if bin_width is None",
