@@ -132,8 +132,13 @@ def test_elastic_stage_errors_name_the_stage():
 
     cap = pp.registry.get("analysis", "elastic")
     dilute = pp.Packing(np.array([[1.0, 1.0, 1.0], [4.0, 4.0, 4.0], [1.0, 4.0, 2.0]]), [0.5, 0.5, 0.5], 8.0)
-    with pytest.raises(InfeasibleError, match=r"^analysis.elastic: no pair within"):
-        run_elastic(dilute, cap.resolve({}), None)
+    # no bond at all (issue 31): floppy, G = 0, the study goes on
+    rec = run_elastic(dilute, cap.resolve({}), None)
+    assert rec["status"] == "floppy" and rec["shear_modulus"] == 0.0 and rec["floppy_reason"].startswith("no pair within")
+    from polypack.mechanics.stages import run_shear
+
+    rec = run_shear(dilute, pp.registry.get("analysis", "shear").resolve({}), None)
+    assert rec["status"] == "floppy" and rec["storage_modulus"] == 0.0 and rec["n_bonds"] == 0
     g = np.stack(np.meshgrid(np.arange(4), np.arange(4), indexing="ij"), -1).reshape(-1, 2) + 0.5
     disks = pp.Packing(g.astype(float), [0.5] * 16, [4.0, 4.0])  # square lattice of touching disks
     with pytest.raises(InvalidInputError, match=r"^analysis.elastic: elastic_tensor supports 3D packings only") as exc:

@@ -317,3 +317,24 @@ def test_report_marks_floppy_unconverged_and_nan_structures(tmp_path):
     assert data["points"][4]["G_Pa"] == 0.0 and data["rows"][0]["floppy"] == 1
     assert "2 structure(s) without a modulus" in data["note"] and "r0005" in data["note"] and "r0006" in data["note"]
     assert data["fit"]["a0"] == pytest.approx(a0, rel=1e-6)
+
+
+def test_report_uses_the_records_rigidity(tmp_path):
+    """Issue 31: a record states rigid / floppy; the report follows it (a rigid near-floppy
+    structure with G'p = 1e-7 of its affine modulus, below the old FLOPPY_FLOOR, stays rigid;
+    a record saying floppy is G'p = 0 whatever its numbers)."""
+    from polypack.ensemble.sweep import heterogeneity_report
+
+    folder = _fake_run(tmp_path / "v", {"kind": "vem", "void_ratio": 1.0})
+    (folder / "realizations").mkdir()
+    g_aff = 2.2e7
+    rows = [(0.40, 2.2, True), (0.45, 3e5, True), (0.50, 4e5, True), (0.55, 5e5, True), (0.60, 6e5, False)]
+    for i, (a, g, rigid) in enumerate(rows):
+        rec = {"index": i, "protocol": {"status": "target"},
+               "analysis": {"pores": {"fit": {"seed": {"a": a, "b": 0.0}}}, "contacts": {"coordination": 4.5},
+                            "elastic": {"shear_moduli": [g] * 3, "affine_shear_modulus": g_aff, "rigid": rigid}}}
+        (folder / "realizations" / f"r{i:04d}.json").write_text(json.dumps(rec))
+    heterogeneity_report(tmp_path / "out", [(1.0, folder)], parameter="protocol.void_ratio")
+    data = json.loads((tmp_path / "out" / "heterogeneity" / "fit.json").read_text())
+    assert [p["rigid"] for p in data["points"]] == [True, True, True, True, False]
+    assert data["points"][0]["G_Pa"] == pytest.approx(2.2) and data["points"][4]["G_Pa"] == 0.0

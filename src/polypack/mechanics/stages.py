@@ -111,6 +111,23 @@ def _prefixed(path, fn, *args, **kw):
         raise type(exc)(f"{path}: {msg}") from None
 
 
+def _bondless(estimator, exc):
+    """The record of a pack without a single bond: floppy (G = 0), never a crash of the study.
+    Any other InfeasibleError is raised."""
+    if "has no bonds" not in str(exc):
+        raise exc
+    reason = str(exc).split(": ", 1)[-1]
+    out = {"estimator": estimator, "status": "floppy", "rigid": False, "floppy": 1, "floppy_reason": reason,
+           "n_bonds": 0, "coordination": 0.0}
+    if estimator == "ElasticTensor":
+        out.update(shear_modulus=0.0, bulk_modulus=0.0, plate_shear_modulus=0.0, shear_moduli=[0.0, 0.0, 0.0],
+                   relaxation_ratio=0.0, floppy_strains=6)
+    else:
+        out.update(storage_modulus=0.0, static_storage_modulus=0.0, converged=0, direction={}, breakages=0,
+                   problems=[f"floppy: {reason}"])
+    return out
+
+
 def run_elastic(packing, opts, seed):
     """``[analysis.elastic]``: the exact elastic tensor of the realized pack's bonded network.
 
@@ -124,7 +141,10 @@ def run_elastic(packing, opts, seed):
     from .elastic import elastic_tensor
 
     path = "analysis.elastic"
-    net, rule = _prefixed(path, network_of, packing, opts, path)
+    try:
+        net, rule = _prefixed(path, network_of, packing, opts, path)
+    except InfeasibleError as exc:
+        return _bondless("ElasticTensor", exc)
     radius = opts.get("radius", 0.25e-6)
     et = _prefixed(path, elastic_tensor, net, rotations=opts.get("rotations", True),
                    radius=radius if radius > 0 else None, solver=opts.get("solver", "auto"))
@@ -173,7 +193,10 @@ def run_shear(packing, opts, seed):
     radius = opts.get("radius", 0.25e-6)
     pk, _ = _scaled(packing, radius)
     strengths = {k: opts[k] for k in ("normal_strength", "shear_strength", "reference") if k in opts}
-    net, rule = _prefixed(path, network_of, pk, opts, path, **strengths)
+    try:
+        net, rule = _prefixed(path, network_of, pk, opts, path, **strengths)
+    except InfeasibleError as exc:
+        return _bondless("ShearResult", exc)
     kw = {k: opts[k] for k in SHEAR_KEYS if k in opts}
     d = opts.get("directions", 6)
     kw["directions"] = d if d == 6 else [tuple(p) for p in d]

@@ -72,6 +72,17 @@ def _records(folder: Path):
 FLOPPY_FLOOR = 1e-6
 
 
+def _stated_rigid(rec, modulus):
+    """``rigid`` as the structure's record states it (``[analysis.elastic]``'s ``rigid``, or the
+    ``[analysis.shear]`` status for ``modulus = "shear"``); None for records made before it existed."""
+    ana = rec.get("analysis", {})
+    if modulus == "shear":
+        st = (ana.get("shear") or {}).get("status")
+        return None if st is None else st != "floppy"
+    r = (ana.get("elastic") or {}).get("rigid")
+    return None if r is None else bool(r)
+
+
 def _structure_values(rec, gsd, elastic, modulus="elastic"):
     """``(a, b, C, G'p, G'p_sd, source, G_affine)`` of one structure.
 
@@ -225,7 +236,11 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
             if not math.isfinite(g):  # a dynamic test that did not converge: no modulus
                 unconverged.append(f"{label} r{rec['index']:04d}")
                 continue
-            rigid = bool(g > FLOPPY_FLOOR * g_aff) if math.isfinite(g_aff) else bool(g > 0)
+            stated = _stated_rigid(rec, modulus)  # the record's own answer (issue 31), when it has one
+            if stated is not None:
+                rigid = stated and bool(g > 0)
+            else:  # older records: round-off of zero is below FLOPPY_FLOOR of the affine modulus
+                rigid = bool(g > FLOPPY_FLOOR * g_aff) if math.isfinite(g_aff) else bool(g > 0)
             if not rigid:  # a zero modulus: its round-off is not reported as a value
                 g, gsd_sd = 0.0, 0.0
                 floppy += 1
