@@ -1075,6 +1075,13 @@ def oscillatory_shear(network, frequency: float = DEFAULTS["frequency"], amplitu
     dirs, frequency, amplitude, cycles, ramp = o["dirs"], o["frequency"], o["amplitude"], o["cycles"], o["ramp"]
     steps_per_cycle, samples_per_cycle, every = o["steps_per_cycle"], o["samples_per_cycle"], o["every"]
     safety, density, layers, measurement_layers = o["safety"], o["density"], o["layers"], o["measurement_layers"]
+    with np.errstate(over="ignore"):  # the squared frequency k/m of the stiffest bond on the lightest sphere
+        w2 = max(float(np.max(net.kn)), float(np.max(net.ks))) / float(np.min(_masses(net.radii, density)[0]))
+    if not (math.isfinite(w2) and w2 < 1e250):
+        raise InvalidInputError(
+            f"normal_stiffness up to {float(np.max(net.kn)):.3g}, shear_stiffness up to {float(np.max(net.ks)):.3g} "
+            f"over the lightest sphere's mass at density {density:.3g}: k/m = {w2:.3g} is beyond float64 dynamics "
+            "(seed 003: kn = 100 N/m, 3690 kg/m³)")
     # strength check: the bond loads of an affine shear of the full amplitude along each
     # direction; more than half the bonds beyond their strength means the amplitude is
     # beyond the bond strength (single bonds may break: breakage is part of the model)
