@@ -32,6 +32,7 @@ from polypack.mechanics import Phase, homogenize
 EPOXY, GLASS = Phase.from_young(3.01e9, 0.394), Phase.from_young(76e9, 0.23)
 HTPB, AP = Phase.from_young(0.6e6, 0.499), Phase.from_young(32.45e9, 0.1433)
 PRECISION = "double"
+COMPOSITE = False
 
 
 def load():
@@ -167,7 +168,7 @@ def part_crm(out, n=400, res=64, reals=4):
         crm = pp.pack(s, volume_fraction=0.6, seed=100 + r)
         scrm = pp.scrm(s, volume_fraction=0.6, seed=100 + r, global_shakes=60)
         for name, pk in (("CRM", crm), ("SCRM", scrm)):
-            h = homogenize(pk, EPOXY, GLASS, res, tolerance=1e-4)
+            h = homogenize(pk, EPOXY, GLASS, res, tolerance=1e-4, composite=COMPOSITE)
             est = moduli_of_pack(pk, EPOXY, [GLASS], three_point=False)
             rows[name].append({"E_ratio": h.young / EPOXY.young, "G_ratio": h.shear / EPOXY.shear,
                                "mefm_E_ratio": est["mefm"].young / EPOXY.young,
@@ -183,7 +184,7 @@ def part_crm(out, n=400, res=64, reals=4):
     summ["CRM_minus_SCRM"] = {"mean": float(d.mean()), "se": float(d.std(ddof=1) / np.sqrt(len(d)))}
     print(f"  CRM - SCRM in E*/E0 (paired by sizes): {d.mean():+.4f} ± {summ['CRM_minus_SCRM']['se']:.4f} "
           f"(n = {n}, {res}^3, {reals} pairs)")
-    out["crm"] = {"n": n, "resolution": res, "rows": rows, "summary": summ, "load": load()}
+    out["crm"] = {"n": n, "resolution": res, "composite": COMPOSITE, "rows": rows, "summary": summ, "load": load()}
 
 
 def main():
@@ -197,10 +198,12 @@ def main():
     ap.add_argument("--crm-resolution", type=int, default=64)
     ap.add_argument("--crm-realizations", type=int, default=4)
     ap.add_argument("--precision", default="double", choices=["double", "single"])
+    ap.add_argument("--composite", action="store_true", help="composite voxels in the crm part")
     ap.add_argument("--json", default=None)
     a = ap.parse_args()
-    global PRECISION
+    global PRECISION, COMPOSITE
     PRECISION = a.precision
+    COMPOSITE = a.composite
     out = {"cpu_count": os.cpu_count(), "load_start": load()}
     print(f"load average at start: {out['load_start']}")
     if "glass" in a.parts:

@@ -108,6 +108,31 @@ def test_dilute_glass_sphere_error_falls_with_resolution():
     assert errs[2][0] < 0.045 and errs[2][1] < 0.09
 
 
+def test_composite_voxels_converge_to_the_dilute_slope_at_the_exact_fraction():
+    # coated (HS lower) composite voxels from sub-voxel fractions: the phase volume is exact,
+    # so the slope is taken at the exact c; the error falls monotonically without averaging
+    # over centre positions (measured bulk 7.9, 4.0, 2.9 %, shear 9.1, 5.4, 4.7 % at n = 12, 24, 40)
+    d = dilute(EPOXY, [GLASS], [1.0])
+    exact = np.array([d.bulk / EPOXY.bulk - 1, d.shear / EPOXY.shear - 1])
+    errs = np.array([np.abs(np.array(_slopes(homogenize(_one_sphere(0.008), EPOXY, GLASS, n, composite=True), 0.008))
+                            / exact - 1) for n in (12, 24, 40)])
+    assert np.all(errs[1] < errs[0]) and np.all(errs[2] < errs[1])
+    assert errs[2][0] < 0.035 and errs[2][1] < 0.055
+
+
+def test_composite_voxels_follow_rayleigh_at_first_order():
+    # simple cubic array, conductivity contrast 10, against Rayleigh at the exact c: the error
+    # halves with the voxel size (measured 1.0 -> 0.51 % at c = 0.1, 2.4 -> 1.2 % at c = 0.3)
+    for c in (0.1, 0.3):
+        pos = np.array([[i + 0.5, j + 0.5, k + 0.5] for i in range(2) for j in range(2) for k in range(2)], float)
+        pk = pp.Packing(pos, np.full(8, (3 * c / (4 * np.pi)) ** (1 / 3)), np.full(3, 2.0))
+        e = [homogenize(pk, 1.0, 10.0, 2 * n, property="conductivity", composite=True).mean_conductivity
+             / _rayleigh(c, 10.0) - 1 for n in (16, 32)]
+        assert 0 < e[1] < 0.6 * e[0] and e[1] < 0.013
+    with pytest.raises(InvalidInputError, match="composite=True needs"):
+        homogenize(np.zeros((4, 4, 4), np.int64), 1.0, 2.0, property="conductivity", composite=True)
+
+
 def _rayleigh(c, a, coef=1.305):
     """Rayleigh's series for a simple cubic array (McPhedran & McKenzie 1978): MG + the c^(10/3) term."""
     b, g = (a - 1) / (a + 2), (a - 1) / (a + 4 / 3)

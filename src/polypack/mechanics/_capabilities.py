@@ -207,6 +207,8 @@ class HomogenizeOptions:
     max_iterations: int = option(5000, v.int_min(1), "CG iterations per load case before giving up")
     scheme: str = option("willot", v.choice("willot", "fourier"), "discrete (rotated, Willot) or continuous Green operator")
     workers: int = option(None, v.int_min(1), "FFT threads (default: all CPUs)")
+    composite: bool = option(False, v.boolean, "composite voxels (coated HS rule from sub-voxel fractions): exact "
+                                                "phase volumes, no stiff bridges between near-touching spheres")
     precision: str = option("double", v.choice("double", "single"), "float64 or float32 fields and FFTs "
                                                                      "(single: half the memory, ~2x faster)")
 

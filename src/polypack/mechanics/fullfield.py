@@ -152,6 +152,7 @@ class Homogenized:
     scheme: str = "willot"
     tolerance: float = 1e-6
     fields: list | None = None
+    composite: bool = False
 
     @property
     def bulk(self):
@@ -191,7 +192,7 @@ class Homogenized:
 
     def to_dict(self):
         d = {"estimator": "FFTHomogenization", "property": self.property, "resolution": list(self.resolution),
-             "scheme": self.scheme, "tolerance": self.tolerance, "converged": bool(self.converged),
+             "scheme": self.scheme, "composite": self.composite, "tolerance": self.tolerance, "converged": bool(self.converged),
              "iterations": int(max(self.iterations)) if self.iterations else 0,
              "iterations_total": int(sum(self.iterations)), "seconds": self.seconds, "asymmetry": self.asymmetry,
              "anisotropy": self.anisotropy, "reference": self.reference, "volume_fractions": self.volume_fractions,
@@ -430,7 +431,7 @@ def _phase_list(matrix, inclusions, n_labels, prop):
 
 
 def _image(source, resolution, subsamples):
-    """``(labels, spacing, fractions)`` from a Packing, a VoxelImage or a label array."""
+    """``(labels, spacing, fractions, fraction field or None)`` from a Packing, a VoxelImage or a label array."""
     from ..io.voxel import VoxelImage, voxelize
     from ..packing import Packing
 
@@ -444,11 +445,34 @@ def _image(source, resolution, subsamples):
                                     f"{source.shape} dtype {source.dtype}")
         lab = source
         counts = np.bincount(lab.ravel()) / lab.size
-        return lab, np.full(lab.ndim, 1.0 / max(lab.shape)), {"voxel": counts.tolist()}
+        return lab, np.full(lab.ndim, 1.0 / max(lab.shape)), {"voxel": counts.tolist()}, None
     else:
         raise InvalidInputError(f"homogenize needs a Packing, a polypack.io.VoxelImage or an integer label array, "
                                 f"got {type(source).__name__}")
-    return img.labels, img.spacing, {"exact": img.exact_fractions.tolist(), "voxel": img.voxel_fractions.tolist()}
+    fr = {"exact": img.exact_fractions.tolist(), "voxel": img.voxel_fractions.tolist()}
+    if img.fraction is not None:
+        fr["subvoxel_inclusion"] = img.subvoxel_inclusion_fraction
+    return img.labels, img.spacing, fr, img.fraction
+
+
+def _coated_elastic(m, f, phi):
+    """Per-voxel ``(K, G)`` of the coated (matrix-reference Hashin–Shtrikman) composite-voxel rule."""
+    from .effective import zeta_reference
+
+    b = 4.0 * m.shear / 3.0
+    z = zeta_reference(m.bulk, m.shear)
+    dk, dg = f.bulk - m.bulk, f.shear - m.shear
+    k = m.bulk + phi * dk / (1.0 + (1.0 - phi) * dk / (m.bulk + b)) if m.bulk + b > 0 else phi * f.bulk
+    g = m.shear + phi * dg / (1.0 + (1.0 - phi) * dg / (m.shear + z)) if m.shear + z > 0 else phi * f.shear
+    return np.asarray(k, dtype=np.float64), np.asarray(g, dtype=np.float64)
+
+
+def _coated_conductivity(k0, k1, phi, dim):
+    """Per-voxel Maxwell-Garnett conductivity (matrix as the coating) of the composite-voxel rule."""
+    d = k1 - k0
+    if k0 == 0.0:
+        return np.where(phi >= 1.0, k1, 0.0)
+    return k0 + phi * d * dim * k0 / (dim * k0 + (1.0 - phi) * d)
 
 
 def _reference(values):
@@ -460,7 +484,7 @@ def _reference(values):
 
 def homogenize(packing, matrix, inclusions=None, resolution=64, *, property="elastic", tolerance=1e-6,
                max_iterations=None, resolutions=None, scheme="willot", backend="numpy", workers=None,
-               fields=False, subsamples=0, precision="double"):
+               fields=False, subsamples=0, precision="double", composite=False):
     """Effective elastic stiffness (or conductivity) of a pack from its voxel image.
 
     Parameters
@@ -496,8 +520,15 @@ def homogenize(packing, matrix, inclusions=None, resolution=64, *, property="ela
         Field arithmetic and FFTs in float64 (default) or float32 (half the memory, faster
         transforms; inner products still accumulate in float64; use ``tolerance >= 1e-5``).
     subsamples : int
-        Passed to :func:`polypack.io.voxelize` (only the reported sub-voxel fraction; the
-        solve uses the label image).
+        Passed to :func:`polypack.io.voxelize` (the sub-voxel inclusion fraction of each
+        voxel; 4 when ``composite`` and not given).
+    composite : bool
+        Composite voxels: a voxel the sphere surface crosses, with inclusion fraction φ,
+        gets the Hashin–Shtrikman moduli with the matrix as the coating (Mori–Tanaka form,
+        ``K = K0 + φ(K1 − K0)/(1 + (1 − φ)(K1 − K0)/(K0 + 4G0/3))``, likewise ``G`` with
+        ``ζ(K0, G0)``; Maxwell-Garnett for conductivity) instead of the label of its centre:
+        the phase volumes are exact and voxels shared by two near-touching spheres do
+        not bridge them with inclusion stiffness. One inclusion material only.
 
     Returns
     -------
@@ -530,7 +561,8 @@ def homogenize(packing, matrix, inclusions=None, resolution=64, *, property="ela
             raise InvalidInputError("resolutions=... needs a Packing (an image has one resolution)")
         runs = [homogenize(packing, matrix, inclusions, r, property=property, tolerance=tol,
                            max_iterations=max_iterations, scheme=scheme, backend=backend, workers=workers,
-                           fields=fields and r == res[-1], subsamples=subsamples, precision=precision) for r in res]
+                           fields=fields and r == res[-1], subsamples=subsamples, precision=precision,
+                           composite=composite) for r in res]
         best = runs[-1]
         keys = ("bulk", "shear") if property == "elastic" else ("mean_conductivity",)
         best.convergence = [{"resolution": list(r.resolution), "iterations": int(max(r.iterations)),
@@ -545,7 +577,14 @@ def homogenize(packing, matrix, inclusions=None, resolution=64, *, property="ela
         raise InvalidInputError(f"precision={precision!r} must be 'double' or 'single'")
     dtype = np.float64 if precision == "double" else np.float32
     xp, rfftn, irfftn, to_numpy = _backend(backend, workers)
-    labels, spacing, fractions = _image(packing, resolution, subsamples)
+    if composite not in (False, True):
+        raise InvalidInputError(f"composite={composite!r} must be True or False")
+    if composite and not subsamples:
+        subsamples = 4
+    labels, spacing, fractions, phi = _image(packing, resolution, subsamples)
+    if composite and phi is None:
+        raise InvalidInputError("composite=True needs a Packing or a VoxelImage voxelized with subsamples > 0 "
+                                "(a label array has no sub-voxel fractions)")
     if property == "elastic" and labels.ndim != 3:
         raise InvalidInputError(f"property='elastic' needs a 3D pack or image (got {labels.ndim}D); "
                                 "2D images support property='conductivity'")
@@ -557,6 +596,8 @@ def homogenize(packing, matrix, inclusions=None, resolution=64, *, property="ela
     else:
         n_labels = max(n_labels, len(fractions.get("exact", [])))
     mats = _phase_list(matrix, inclusions, n_labels, property)
+    if composite and any(p != mats[1] for p in mats[2:]):
+        raise InvalidInputError("composite=True needs one inclusion material for every species")
     maxit = int(max_iterations) if max_iterations is not None else 5000
     if maxit < 1:
         raise InvalidInputError(f"max_iterations={max_iterations!r} must be >= 1")
@@ -568,7 +609,11 @@ def homogenize(packing, matrix, inclusions=None, resolution=64, *, property="ela
         k0, g0 = _reference(ks), _reference(gs)
         lam_t = xp.asarray(np.array([k - 2.0 * g / 3.0 for k, g in zip(ks, gs)], dtype=dtype))
         mu_t = xp.asarray(np.array(gs, dtype=dtype))
-        lam, mu = lam_t[lab], mu_t[lab]
+        if composite and len(mats) > 1:
+            kc, gc = _coated_elastic(mats[0], mats[1], np.asarray(phi, dtype=np.float64))
+            lam, mu = xp.asarray((kc - 2.0 * gc / 3.0).astype(dtype)), xp.asarray(gc.astype(dtype))
+        else:
+            lam, mu = lam_t[lab], mu_t[lab]
         del lab
         cmat, its, conv, flds = _solve_elastic(lam, mu, spacing, tol, maxit, xp, rfftn, irfftn,
                                                k0 - 2.0 * g0 / 3.0, g0, scheme, fields)
@@ -577,7 +622,11 @@ def homogenize(packing, matrix, inclusions=None, resolution=64, *, property="ela
                           asymmetry=asym, reference={"bulk": k0, "shear": g0})
     else:
         k0 = _reference(mats)
-        kf = xp.asarray(np.array(mats, dtype=dtype))[lab]
+        if composite and len(mats) > 1:
+            kf = xp.asarray(_coated_conductivity(mats[0], mats[1], np.asarray(phi, dtype=np.float64),
+                                                 labels.ndim).astype(dtype))
+        else:
+            kf = xp.asarray(np.array(mats, dtype=dtype))[lab]
         del lab
         cmat, its, conv, flds = _solve_conductivity(kf, spacing, tol, maxit, xp, rfftn, irfftn, k0, scheme, fields)
         asym = float(np.abs(cmat - cmat.T).max() / max(np.abs(cmat).max(), 1e-300))
@@ -587,6 +636,7 @@ def homogenize(packing, matrix, inclusions=None, resolution=64, *, property="ela
     out.scheme = scheme
     out.tolerance = tol
     out.volume_fractions = fractions
+    out.composite = bool(composite)
     if fields:
         out.fields = [to_numpy(f) for f in flds]
     return out

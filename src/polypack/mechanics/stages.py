@@ -256,7 +256,7 @@ def homogenize_record(packing, matrix, inclusions, opts, name="custom"):
     res = opts.get("resolution", 48)
     kw = dict(tolerance=opts.get("tolerance", 1e-6), max_iterations=opts.get("max_iterations", 5000),
               scheme=opts.get("scheme", "willot"), workers=opts.get("workers"),
-              precision=opts.get("precision", "double"))
+              precision=opts.get("precision", "double"), composite=opts.get("composite", False))
     incs = inclusions if len(inclusions) > 1 else inclusions[0]
     if isinstance(res, list):
         r = homogenize(packing, matrix, incs, res[-1], resolutions=res, **kw)
@@ -266,7 +266,8 @@ def homogenize_record(packing, matrix, inclusions, opts, name="custom"):
     vf = r.volume_fractions
     out = {"estimator": "FFTHomogenization", "system": name, "matrix": matrix.to_dict(),
            "inclusions": [p.to_dict() for p in inclusions], "resolution": d["resolution"], "scheme": d["scheme"],
-           "tolerance": d["tolerance"], "converged": int(r.converged), "iterations": d["iterations"],
+           "tolerance": d["tolerance"], "composite": int(r.composite), "converged": int(r.converged),
+           "iterations": d["iterations"],
            "iterations_total": d["iterations_total"], "seconds": d["seconds"],
            "volume_fraction": float(1.0 - vf["exact"][0]), "voxel_volume_fraction": float(1.0 - vf["voxel"][0]),
            "convergence": d["convergence"]}
