@@ -210,7 +210,7 @@ def test_cli_report_view_and_run(run_dir, tmp_path, capsys):
 def test_modulus_against_the_doh(tmp_path):
     """A run with the elastic and pore stages: the shear modulus of each realization against its
     DOH a (seed 003 Fig. 6), the points being the numbers of the records."""
-    from polypack.ensemble import plots as P
+    from polypack.report import figures as P
 
     st = {"study": {"name": "el", "seed": 3, "realizations": 2},
           "psd": {"model": "bimodal", "size_ratio": 0.5, "volume_ratio": 0.5, "n": 150},

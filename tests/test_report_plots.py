@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from polypack.ensemble import plots as P
+from polypack.report import figures as P
 
 
 def _entry(x, curves, n=4):

@@ -156,7 +156,7 @@ def _meta_html(meta) -> str:
 
 def pack_report_html(path, *, color=None, fields=None, tolerance=0.01, plots_dir=None, formats=()) -> str:
     """The report page of one pack file (viewer, pack table, species, grading curve, provenance)."""
-    from ..ensemble.plots import grading_figure, save_figure, svg_text
+    from .figures import grading_figure, save_figure, svg_text
     from .viewer import coordination_numbers
 
     path = Path(path)
@@ -332,7 +332,7 @@ def run_figures(run: RunFolder, packs, *, theory=False, compare=(), plots_dir=No
     """``[(name, svg, caption)]`` of the run's figures (and files in ``plots_dir``)."""
     import matplotlib.pyplot as plt
 
-    from ..ensemble import plots as P
+    from . import figures as P
 
     out = []
     if run.curves is None or not run.records:
@@ -577,7 +577,7 @@ def report(source, out=None, *, color=None, theory=False, compare=(), plots_dir=
         The HTML file written (atomically).
     """
     from .._util import atomic_open, make_folder, output_path
-    from ..ensemble.plots import PLOT_FORMATS
+    from .figures import PLOT_FORMATS
 
     src = Path(source)
     formats = tuple(formats or ())
