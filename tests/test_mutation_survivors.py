@@ -226,7 +226,7 @@ def test_run_report_pores_fit_half_widths_are_each_parameters_own(monkeypatch):
     import matplotlib.pyplot as plt
     from scipy import stats
 
-    import polypack.ensemble.plots as P
+    import polypack.report.figures as P
     from polypack.report.build import run_figures
 
     seen = {}
