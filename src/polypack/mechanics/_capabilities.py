@@ -62,7 +62,9 @@ ELASTIC_SCALARS = (
 
 register(
     "mechanics", "elastic", ElasticOptions, "polypack.mechanics.stages:run_elastic",
-    Outputs(scalars=ELASTIC_SCALARS, flatten=("shear_moduli",)),
+    Outputs(scalars=ELASTIC_SCALARS, flatten=("shear_moduli",),
+            labels={"floppy": "floppy networks (1: G = 0 exactly; the mean is their fraction)",
+                    "floppy_strains": "strain modes of zero modulus (0 rigid ... 6)"}),
     doc="exact elastic tensor of the bonded network (static limit of the shear test of 003_873b69fc71c74cf6.txt §2.4)",
     requires=("polypack.mechanics:elastic_tensor",), preflight="polypack.mechanics.stages:preflight_3d",
     kernels=("polypack._kernels.cells", "polypack._kernels.network"),
@@ -133,7 +135,10 @@ SHEAR_SCALARS = (
 
 register(
     "mechanics", "shear", ShearOptions, "polypack.mechanics.stages:run_shear",
-    Outputs(scalars=SHEAR_SCALARS, flatten=("direction",)),
+    Outputs(scalars=SHEAR_SCALARS, flatten=("direction",),
+            labels={"floppy": "floppy networks (1: G' = 0, no DEM run; the mean is their fraction)",
+                    "converged": "converged elastic responses (1: status ok; 0: floppy or not converged, moduli None)",
+                    "static_storage_modulus": "static limit of G' (exact tensor, directions run)"}),
     doc="oscillatory shear test by bonded DEM: G', G'' (§2.4 of 003_873b69fc71c74cf6.txt)",
     requires=("polypack.mechanics:oscillatory_shear",), preflight="polypack.mechanics.stages:preflight_shear",
     kernels=("polypack._kernels.cells", "polypack._kernels.network", "polypack._kernels.contacts", "polypack._kernels.dem"),
