@@ -45,7 +45,7 @@ from importlib import import_module as _import_module
 from .errors import FormatError, InfeasibleError, InvalidInputError, NotComputedError, OverlapError, PolypackError
 from .packing import Packing
 
-__version__ = "0.1.0"
+from ._version import __version__
 
 __all__ = [
     "Packing",

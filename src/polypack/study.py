@@ -477,7 +477,7 @@ def versions() -> dict:
 
     import numpy
 
-    from . import __version__
+    from ._version import __version__
 
     out = {"polypack": __version__, "python": platform.python_version(), "numpy": numpy.__version__}
     for mod in ("numba", "scipy", "gsd"):

@@ -139,7 +139,7 @@ def _paths(out: Path, index: int):
 def code_record() -> dict:
     """What a resume trusts besides the study: the polypack version and a digest of the
     code that computes a realization (:func:`polypack.study.code_digest`)."""
-    from .. import __version__
+    from .._version import __version__
     from ..study import code_digest
 
     return {"polypack": __version__, "digest": code_digest()}

@@ -56,7 +56,7 @@ def provenance_json(packing: Packing) -> str:
     round-trips exactly (floats via ``repr``, including nan and inf). numpy values become
     plain numbers or lists, tuples become lists, anything else its ``repr`` string.
     """
-    from .. import __version__
+    from .._version import __version__
 
     record = {"writer": "polypack", "version": __version__, "meta": packing.meta}
     return json.dumps(record, default=_json_default, allow_nan=True, ensure_ascii=True)

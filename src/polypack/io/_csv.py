@@ -43,7 +43,7 @@ HEADER_2D = "x,y,radius,species"
 
 def write(path, packing: Packing) -> None:
     """Write ``packing`` as CSV with the box in a header comment (atomically)."""
-    from .. import __version__
+    from .._version import __version__
 
     box = ",".join(num(v) for v in packing.box)
     walls = "" if packing.fully_periodic else "# periodic: " + ",".join("T" if f else "F" for f in packing.periodic) + "\n"

@@ -96,7 +96,7 @@ def write_data(path, packing: Packing, *, atom_style: str = "sphere", density=1.
         Coeffs`` section: BPM bond styles can only be defined after ``read_data`` has
         made the box, so their coefficients belong in the input script.
     """
-    from .. import __version__
+    from .._version import __version__
     from ..errors import InvalidInputError
 
     if packing.dim != 3:

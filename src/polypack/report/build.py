@@ -193,7 +193,7 @@ def pack_report_html(path, *, color=None, fields=None, tolerance=0.01, plots_dir
 
 
 def _version():
-    from .. import __version__
+    from .._version import __version__
 
     return __version__
 
