@@ -672,6 +672,12 @@ MUTANTS += [
     Mutant("m31-check-vem-dim", G + "protocols.py",
            '    _need_3d(info, path, "vem")\n', "    pass\n",
            ("tests/test_check_complete.py",), "dropped check (a 2D size set made into 3D VEM structures)"),
+    Mutant("m31-convert-drops-bonds", "src/polypack/_cli/io_commands.py",
+           "        if net is not None and not drop_bonds:\n", "        if net is not None and drop_bonds:\n",
+           ("tests/test_network_files.py",), "inverted condition (convert drops the bonds of a network)"),
+    Mutant("m31-writes-onto-input", "src/polypack/_util.py",
+           "        if src is not None and _same_file(path, src):\n", "        if False:\n",
+           ("tests/test_network_files.py",), "dropped check (a command writes onto its own input)"),
 ]
 
 
