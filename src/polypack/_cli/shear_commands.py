@@ -110,7 +110,9 @@ def register(app: typer.Typer) -> None:
         if interrupted:  # what was measured is printed above; nothing incomplete is written
             raise typer.Exit(130)
         if json_out is not None and (res.per_direction or res.status == "floppy"):
-            out = res.to_dict(series=True)
+            from ..ensemble.runner import finite_json
+
+            out = finite_json(res.to_dict(series=True))  # NaN never reaches JSON
             out["source"] = str(source)
             with atomic_open(json_out, "w") as fh:
                 json.dump(out, fh, indent=1, allow_nan=False)
