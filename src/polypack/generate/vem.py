@@ -119,6 +119,40 @@ STRUCTURE_CONTACTS = ("frictionless", "sticky")
 VEM_DEFAULTS = _registry.defaults(VEMOptions)
 
 
+def _record(options, ns, n_void, r0, run) -> dict:
+    """``meta["vem"]``: the options as checked (VEMOptions' order), the sizes, then the run's statistics."""
+    head = ("volume_fraction", "void_ratio")
+    return {**{k: options[k] for k in head}, "n_structure": ns, "n_void": n_void, "radius": r0,
+            **{k: x for k, x in options.items() if k not in head}, **run}
+
+
+def _separate(pos, red, box, ns, skin):
+    """Remove the structure's overlaps left when the voids go: rounds of projections
+    (:func:`polypack._kernels.vem.separate`) over a fresh candidate list until a round starts
+    without overlap (large overlaps move spheres by more than the list's skin).
+
+    Returns ``(positions wrapped into the box, status, sweeps, worst overlap before)``.
+    """
+    from .._kernels import vem as V
+    from .._kernels.cells import pairs_within
+    from ..neighbors import choose_cells
+
+    wpos = np.mod(pos, box)
+    wpos = np.minimum(wpos, np.nextafter(box, 0))
+    ncell = np.asarray(choose_cells(box, ns, 2.0 * float(red.min()) + skin), np.int64)
+    sweeps, worst, status = 0, 0.0, None
+    for rnd in range(50):
+        pi, pj, _ = pairs_within(wpos, red, box, 1.0, skin, ncell)
+        status, k, first = V.separate(wpos, red, box, pi, pj, 1.0 + 1e-10, 100000)
+        sweeps += k
+        if rnd == 0:
+            worst = first
+        wpos = np.minimum(np.mod(wpos, box), np.nextafter(box, 0))
+        if first == 0.0 and status == V.SEPARATE_DONE:
+            break
+    return wpos, status, sweeps, worst
+
+
 def _structure_radii(n, radius):
     """Structure radii and species from ``n`` (int, SizeSet, array of radii)."""
     if isinstance(n, (int, np.integer)) and not isinstance(n, bool):
@@ -577,71 +611,31 @@ def vem(
                 fsteps, fratio = asm.relax(tol, check_every, 20 * stage_steps, overlap_floor=UNLOADED)
                 steps_total += fsteps
             _interrupt.check("vem interrupted in the final relaxation")
-            wpos = np.mod(asm.pos, box)
-            wpos = np.minimum(wpos, np.nextafter(box, 0))
-            from .._kernels.cells import pairs_within
-            from ..neighbors import choose_cells
-
-            ncell = np.asarray(choose_cells(box, ns, 2.0 * float(red.min()) + skin), np.int64)
-            # rounds of projections over a fresh candidate list until a round starts without overlap
-            # (large overlaps move spheres by more than the list's skin)
-            sweeps, worst = 0, 0.0
-            for rnd in range(50):
-                pi, pj, _ = pairs_within(wpos, red, box, 1.0, skin, ncell)
-                status, k, first = V.separate(wpos, red, box, pi, pj, 1.0 + 1e-10, 100000)
-                sweeps += k
-                if rnd == 0:
-                    worst = first
-                wpos = np.minimum(np.mod(wpos, box), np.nextafter(box, 0))
-                if first == 0.0 and status == V.SEPARATE_DONE:
-                    break
+            wpos, status, sweeps, worst = _separate(asm.pos, red, box, ns, skin)
         finally:
             bar.close()
     wpos = np.mod(wpos, box)
     wpos = np.minimum(wpos, np.nextafter(box, 0))
     wall = time.perf_counter() - t_wall
     scale = r0
-    meta = {
-        "generator": "vem",
-        "seed": seed_record(ss),
-        "vem": {
-            "volume_fraction": phi,
-            "void_ratio": vr,
-            "n_structure": ns,
-            "n_void": n_void,
-            "radius": r0,
-            "growth_factor": gf,
-            "initial_void_radius": rv0,
-            "normal_stiffness": kn,
-            "shear_stiffness": ks,
-            "void_normal_stiffness": knv,
-            "void_shear_stiffness": ksv,
-            "friction": mu,
-            "damping": alpha,
-            "ratio_tolerance": tol,
-            "jam_overlap": jam,
-            "check_every": check_every,
-            "stage_steps": stage_steps,
-            "max_stages": max_stages,
-            "final_relaxation": final_relaxation,
-            "structure_contacts": structure_contacts,
-            "bonds_at_jamming": int(n_bonds_jam),
-            "mass_scaling": "one common mass for all spheres; time step 0.2 sqrt(m / k_max)",
-            "stop_reason": reason,
-            "stages": len(series["stage"]),
-            "final_void_diameter": void_d,
-            "coordination_at_jamming": c_jam,
-            "final_relaxation_steps": int(fsteps),
-            "final_relaxation_ratio": float(fratio),
-            "separation_sweeps": int(sweeps),
-            "separation_converged": bool(status == V.SEPARATE_DONE),
-            "overlap_before_separation": float(worst),
-            "steps": int(steps_total),
-            "neighbour_rebuilds": int(asm.rebuilds),
-            "wall_time": wall,
-            "series": series,
-        },
+    run = {
+        "bonds_at_jamming": int(n_bonds_jam),
+        "mass_scaling": "one common mass for all spheres; time step 0.2 sqrt(m / k_max)",
+        "stop_reason": reason,
+        "stages": len(series["stage"]),
+        "final_void_diameter": void_d,
+        "coordination_at_jamming": c_jam,
+        "final_relaxation_steps": int(fsteps),
+        "final_relaxation_ratio": float(fratio),
+        "separation_sweeps": int(sweeps),
+        "separation_converged": bool(status == V.SEPARATE_DONE),
+        "overlap_before_separation": float(worst),
+        "steps": int(steps_total),
+        "neighbour_rebuilds": int(asm.rebuilds),
+        "wall_time": wall,
+        "series": series,
     }
+    meta = {"generator": "vem", "seed": seed_record(ss), "vem": _record(o, ns, n_void, r0, run)}
     out = Packing(wpos * scale, radii, box * scale, species=species, meta=meta)
     gap = out.min_gap()
     out.meta["min_gap"] = float(gap)
