@@ -680,6 +680,43 @@ MUTANTS += [
            ("tests/test_network_files.py",), "dropped check (a command writes onto its own input)"),
 ]
 
+# rigidity of the bonded network (issue 36): floppy space, rigid clusters, backbone, fabric
+T_RIG = ("tests/test_mechanics_rigidity.py",)
+MUTANTS += [
+    Mutant("m-rig-translation-not-rotation", M + "rigidity.py",
+           "dw = zz[:, bj, 3:] - zz[:, bi, 3:]", "dw = zz[:, bj, :3] - zz[:, bi, :3]",
+           T_RIG, "wrong components (rigid bond = equal rotations)"),
+    Mutant("m-rig-constraints-per-bond", M + "rigidity.py",
+           "cons = 1 if central else 3", "cons = 1 if central else 2",
+           T_RIG, "wrong count (constraints of a contact bond)"),
+    Mutant("m-rig-backbone-z-factor", M + "rigidity.py",
+           "bb_z = 2.0 * float(union.sum()) / max(int(bb_part.sum()), 1)",
+           "bb_z = float(union.sum()) / max(int(bb_part.sum()), 1)",
+           T_RIG, "dropped factor 2 (coordination)"),
+    Mutant("m-rig-nonaffinity-modes", M + "rigidity.py",
+           "gam = float(gam_m[3:].mean())", "gam = float(gam_m[:3].mean())",
+           T_RIG, "wrong slice (axial instead of shear strains)"),
+    Mutant("m-rig-percolation-any-axis", M + "rigidity.py",
+           "perc = bool(sp_c.all(axis=1).any()) if sp_c.size else False",
+           "perc = bool(sp_c.any(axis=1).any()) if sp_c.size else False",
+           T_RIG, "wrong quantifier (one axis instead of every axis)"),
+    Mutant("m-el-null-samples-no-metric", M + "elastic.py",
+           "        z = shift * solve(dd[:, None] * z)\n", "        z = shift * solve(z)\n",
+           T_RIG, "missing factor (D in the inverse iteration: participation off)"),
+    Mutant("m-el-null-samples-no-sweep", M + "elastic.py",
+           "    for _ in range(sweeps):\n        z = shift", "    for _ in range(0):\n        z = shift",
+           T_RIG, "off-by-all (no inverse iteration: samples not in the null space)"),
+    Mutant("k-rig-hinge-merge", K + "rigidity.py",
+           "if np.sqrt(dd) * lbar > tol * amp[s]:", "if np.sqrt(dd) * lbar > 1e30 * amp[s]:",
+           T_RIG, "missing condition (triangles sharing a bond merged without equal rotations)"),
+    Mutant("k-rig-triangle-test", K + "rigidity.py",
+           "if abs(dot) / dik > tol * amp[s]:", "if abs(dot) / dik > 1e30 * amp[s]:",
+           T_RIG, "missing condition (every triangle rigid)"),
+    Mutant("k-rig-unwrap-sign", K + "rigidity.py",
+           "img[q, d] = img[p, d] + sign[e] * shift[c, d]", "img[q, d] = img[p, d] - sign[e] * shift[c, d]",
+           T_RIG, "wrong sign (periodic image)"),
+]
+
 
 # issue 34: voxel images and full-field FFT homogenization
 T_HOM = ("tests/test_homogenize.py",)

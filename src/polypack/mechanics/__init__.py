@@ -40,6 +40,9 @@ _LAZY = {
     "bond_forces": "export",
     "lammps_shear_input": "export",
     "fit_lammps_shear": "export",
+    # rigidity: floppy modes, rigid clusters, load-bearing backbone, fabric (issue 36)
+    "rigidity": "rigidity",
+    "Rigidity": "rigidity",
 }
 
 __all__ = sorted(_LAZY)

@@ -391,7 +391,7 @@ def _refine(h, b, bn, solve, tol, max_refine):
 
 
 def _solve_direct(h, b, ref, tau=1e-9, tol=1e-12, max_refine=50, local_modes=None, backend=None,
-                  krylov_tau=1e-12, max_krylov=2000, energy=None):
+                  krylov_tau=1e-12, max_krylov=2000, energy=None, samples=0, sample_out=None):
     """Solve the consistent singular PSD system ``h x = b`` and count its zero modes.
 
     The floppy modes are counted exactly by Sylvester's law of inertia: a symmetric
@@ -422,6 +422,11 @@ def _solve_direct(h, b, ref, tau=1e-9, tol=1e-12, max_refine=50, local_modes=Non
     of the column's energy): soft modes are response, not floppy.
     Returns ``(x, floppy, open_residual, residual, basis, backend, cg_iterations)``
     (``open_residual``: see :func:`_solve_cg`; the residual itself after refinement).
+
+    ``samples > 0`` with a dict ``sample_out``: before the factor is freed, that many
+    random vectors of the (near-)null space are drawn with it (:func:`_null_samples`)
+    and stored as ``sample_out["z"]`` ((n, samples)), with the diagonal ``"d"`` and the
+    factor's ``"shift"`` (for :func:`polypack.mechanics.rigidity`).
     """
     import scipy.sparse as sp
 
@@ -474,6 +479,10 @@ def _solve_direct(h, b, ref, tau=1e-9, tol=1e-12, max_refine=50, local_modes=Non
         # (tens of CPU minutes at N = 8000): the moduli do not depend on it (a floppy
         # mode carries no stress); only the local modes leave the non-affine fields
         basis = (local_modes, None)
+    if samples and sample_out is not None:
+        # fac is the shifted indefinite factor of h - tau D, or the positive one of h + s D
+        shift = -tau if fac is shifted else fac.shift
+        sample_out.update(z=_null_samples(fac.solve, d, shift, samples), d=d, shift=abs(shift))
     fac.free()
     return x, floppy, res if open_res is None else open_res, res, basis, backend, iterations
 
@@ -485,11 +494,35 @@ def _positive_factor(cls, h, d, shift, tries=3):
 
     for attempt in range(tries):
         try:
-            return cls(h + sp.diags(shift * d), 2)
+            fac = cls(h + sp.diags(shift * d), 2)
+            fac.shift = shift
+            return fac
         except Exception:  # noqa: BLE001 - pypardiso raises its own PyPardisoError
             if attempt == tries - 1:
                 raise
             shift *= 1e3
+
+
+def _null_samples(solve, d, shift, k, sweeps=3, seed=20261204):
+    """``k`` random vectors of the near-null space of ``h`` by shifted inverse iteration.
+
+    ``solve`` applies the inverse of ``h + shift D`` (``D = diag d``; ``shift < 0``: the
+    indefinite factor of ``h - |shift| D``). Starting from ``D^-1/2 g`` (``g`` standard
+    normal), each sweep ``z <- shift solve(D z)`` keeps the component along every mode
+    of ``h v = mu D v`` with ``mu = 0`` and multiplies the others by
+    ``shift / (mu + shift)``: after ``sweeps`` sweeps a stiff mode (``mu >> |shift|``) is
+    gone to ``(|shift| / mu)^sweeps``. With ``D``-orthonormal null modes ``v_k`` the
+    result is ``sum_k v_k g_k`` with independent standard normal ``g_k``, so
+    ``E |D^1/2 z|^2`` summed over the unknowns of a particle is that particle's share
+    of the null space (their sum over all unknowns is its dimension: Hutchinson's
+    trace estimator). Deterministic (fixed seed).
+    """
+    rng = np.random.default_rng(seed)
+    dd = np.maximum(np.asarray(d, dtype=np.float64), 1e-300)
+    z = rng.standard_normal((dd.size, int(k))) / np.sqrt(dd)[:, None]
+    for _ in range(sweeps):
+        z = shift * solve(dd[:, None] * z)
+    return z
 
 
 def _floppy_basis(solve, h, k, local=None, sweeps=6):
@@ -850,7 +883,7 @@ def _auto_solver(unknowns, z, nd):
     return "cg" if unknowns < _AMG_MIN else "amg"
 
 
-def elastic_tensor(network, rotations=True, *, radius=None, solver="auto", tol=1e-10):
+def elastic_tensor(network, rotations=True, *, radius=None, solver="auto", tol=1e-10, floppy_samples=0):
     """Exact linear elastic tensor of a periodic bonded network.
 
     The static limit of the oscillatory plate-shear test of §2.4 of
@@ -883,6 +916,13 @@ def elastic_tensor(network, rotations=True, *, radius=None, solver="auto", tol=1
         and AMG-CG above.
     tol : float, default 1e-10
         Relative residual of the relaxation.
+    floppy_samples : int, default 0
+        With the direct solver, also draw this many random vectors of the floppy space
+        from its factorization (``et.floppy_samples``, ``(k, N, nd)`` in the solver's
+        unknowns, NaN outside the relaxing part; ``et.floppy_metric`` the diagonal of
+        the stiffness per unknown): what :func:`polypack.mechanics.rigidity` needs, at
+        the cost of a few solves with the factor already made. Ignored by the
+        iterative solvers (the attributes are then None).
 
     Returns
     -------
@@ -923,6 +963,9 @@ def elastic_tensor(network, rotations=True, *, radius=None, solver="auto", tol=1
         raise InvalidInputError(f"solver={solver!r}: allowed are 'auto', 'direct', 'amg', 'cg'")
     if not (np.isfinite(tol) and 0 < tol < 1):
         raise InvalidInputError(f"tol={tol!r}: must be in (0, 1)")
+    if isinstance(floppy_samples, bool) or int(floppy_samples) != floppy_samples or floppy_samples < 0:
+        raise InvalidInputError(f"floppy_samples={floppy_samples!r}: must be an integer >= 0")
+    floppy_samples = int(floppy_samples)
     if network.reference != "stress-free":
         f = np.abs(network.normal_force)
         if f.max() > 1e-12 * float(np.max(network.normal_stiffness * network.length)):
@@ -1013,11 +1056,13 @@ def elastic_tensor(network, rotations=True, *, radius=None, solver="auto", tol=1
             y = full
         return np.diag(knl.relaxed_gram(*bonds, y.reshape(n, nd, -1), strains[:y.shape[1]]))
 
+    drawn = {}
     if method == "direct":
         hr = h.tocsr()[keep][:, keep]
         local = _local_spin_modes(n, nd, keep, bi, bj, bonds[6], bonds[7], ell)
         x_r, floppy, open_res, res, basis, factorization, cg_iterations = _solve_direct(
-            hr, rhs[keep], ref, tol=min(tol, 1e-12), local_modes=local, energy=lambda y: relaxed_energy(y, keep))
+            hr, rhs[keep], ref, tol=min(tol, 1e-12), local_modes=local, energy=lambda y: relaxed_energy(y, keep),
+            samples=floppy_samples, sample_out=drawn)
         iterations = cg_iterations or None
         if floppy is not None:
             floppy += int(untouched.sum())
@@ -1084,7 +1129,25 @@ def elastic_tensor(network, rotations=True, *, radius=None, solver="auto", tol=1
     if rotations:
         rot = np.full((6, n_all, 3), np.nan)
         rot[:, active] = q[:, :, 3:] / ell
+    samples_out = metric_out = None
+    if drawn:
+        # unknowns no bond touches are zero modes of their own (free, unit metric scale)
+        dref = float(np.mean(drawn["d"])) if drawn["d"].size else 1.0
+        zf = np.zeros((n * nd, floppy_samples))
+        zf[keep] = drawn["z"]
+        zf[untouched] = np.random.default_rng(7).standard_normal((int(untouched.sum()), floppy_samples)) / np.sqrt(dref)
+        samples_out = np.full((floppy_samples, n_all, nd), np.nan)
+        samples_out[:, active] = zf.reshape(n, nd, floppy_samples).transpose(2, 0, 1)
+        mf = np.zeros(n * nd)
+        mf[keep] = drawn["d"]
+        mf[untouched] = dref
+        metric_out = np.zeros((n_all, nd))
+        metric_out[active] = mf.reshape(n, nd)
     return ElasticTensor(
+        floppy_samples=samples_out,
+        floppy_metric=metric_out,
+        floppy_sample_shift=drawn.get("shift"),
+        active=active,
         stiffness=c_rel / scale,
         affine_stiffness=c_aff / scale,
         nonaffine_displacements=disp,
