@@ -309,3 +309,73 @@ def test_bad_input():
         rigidity(net, elastic_tensor(BondNetwork.from_packing(fcc(cells=3), epsilon=1e-6)))
     with pytest.raises(InvalidInputError, match="floppy_samples"):
         elastic_tensor(net, floppy_samples=-1)
+
+
+# ------------------------------------------------------------- study stage
+def _study(analysis, **protocol):
+    return {
+        "study": {"name": "rig", "seed": 5, "realizations": 2},
+        "psd": {"model": "monodisperse", "d": 1.0, "n": 60},
+        "protocol": {"kind": "crm", "volume_fraction": 0.6, **protocol},
+        "analysis": analysis,
+        "output": {"plots": False},
+    }
+
+
+def test_rigidity_stage_matches_the_direct_api_and_reuses_the_tensor(tmp_path):
+    """[analysis.rigidity] beside [analysis.elastic]: the summary columns equal the direct
+    API on the pack read back from the GSD file, and the elastic stage's tensor (with its
+    floppy-space samples) is reused, not recomputed."""
+    import csv
+    import json
+
+    from polypack.mechanics import stages
+
+    out = tmp_path / "run"
+    opts = {"epsilon": 0.05, "normal_stiffness": 50.0}
+    pp.ensemble.run_study(_study({"elastic": dict(opts), "rigidity": dict(opts, force_fraction=0.5)}), out,
+                          progress=False)
+    with open(out / "summary.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == 2 and not stages._LAST  # the cache is emptied once used
+    for k, row in enumerate(rows):
+        pk = pp.io.read(out / "realizations" / f"r{k:04d}.gsd")
+        net = BondNetwork.from_packing(pk, epsilon=0.05, normal_stiffness=50.0, shear_stiffness=5.0)
+        r = rigidity(net, elastic_tensor(net, radius=0.25e-6, floppy_samples=8), force_fraction=0.5)
+        for col, want in (("floppy_modes", r.floppy_modes), ("states_of_self_stress", r.states_of_self_stress),
+                          ("largest_cluster_fraction", r.largest_cluster_fraction),
+                          ("backbone_fraction", r.backbone_fraction),
+                          ("backbone_coordination", r.backbone_coordination),
+                          ("excess_coordination", r.backbone_coordination - 4.0),
+                          ("percolating", int(r.percolating)), ("nonaffinity", r.nonaffinity),
+                          ("shear_fabric.1", r.shear_fabric[1]), ("backbone_shear_fabric.2", r.backbone_shear_fabric[2]),
+                          ("nonaffinity_modes.4", r.nonaffinity_modes[4])):
+            assert float(row[f"rigidity.{col}"]) == pytest.approx(want, rel=1e-8, abs=1e-12), col
+        rec = json.loads((out / "realizations" / f"r{k:04d}.json").read_text())
+        assert rec["analysis"]["rigidity"]["elastic_reused"] is True
+    # alone (no elastic stage) it computes the tensor itself, with the same numbers
+    out2 = tmp_path / "alone"
+    pp.ensemble.run_study(_study({"rigidity": dict(opts, force_fraction=0.5)}), out2, progress=False)
+    rec = json.loads((out2 / "realizations" / "r0000.json").read_text())["analysis"]["rigidity"]
+    assert rec["elastic_reused"] is False
+    assert rec["backbone_coordination"] == pytest.approx(float(rows[0]["rigidity.backbone_coordination"]), rel=1e-8)
+
+
+def test_rigidity_stage_on_a_floppy_pack_finishes():
+    """A phi = 0.3 pack bonded at epsilon = 0.01 has no wrapping cluster: no percolation, no
+    backbone, and the record still holds numbers (no NaN)."""
+    from polypack.mechanics.stages import run_rigidity
+
+    pk = pp.pack(np.full(60, 0.5), volume_fraction=0.3, seed=3, progress=False)
+    out = run_rigidity(pk, {"epsilon": 0.01}, None)
+    assert out["percolating"] == 0 and out["backbone_fraction"] == 0.0
+
+
+@pytest.mark.parametrize("table,msg", [({"force_fraction": 0}, "force_fraction"), ({"samples": 0}, "samples"),
+                                       ({"bogus": 1}, "bogus")])
+def test_rigidity_stage_bad_options(table, msg):
+    from polypack.study import validate
+
+    data = _study({"rigidity": table})
+    with pytest.raises(InvalidInputError, match=msg):
+        validate(data)

@@ -59,6 +59,10 @@ SINKS = {
               ("polypack.mechanics.dem", "oscillatory_shear", True)],
     "moduli": [("polypack.ensemble.moduli_stage", "moduli_of_pack", True)],
     "homogenize": [("polypack.mechanics.fullfield", "homogenize", True)],
+    "rigidity": [("polypack.mechanics.network", "BondNetwork.from_packing", False),
+                 ("polypack.mechanics.network", "BondNetwork.from_pairs", False),
+                 ("polypack.mechanics.elastic", "elastic_tensor", False),
+                 ("polypack.mechanics.rigidity", "rigidity", True)],
 }
 
 # tables every run of a stage needs (required options; shaking on, so that its options are used)
@@ -74,6 +78,7 @@ CONTEXT = {
     ("brownian", "rolling_stiffness"): {"bonds": "tangential"},
     ("brownian", "rolling_moment"): {"bonds": "tangential"},
     ("brownian", "lubrication_range"): {"hydrodynamics": "lubrication"},
+    ("rigidity", "epsilon"): {"bonds": "distance"},
 }
 
 # values for options whose check alone does not say what to try
@@ -92,6 +97,7 @@ OVERRIDES = {
     ("elastic", "bonds"): "distance",  # the pack carries protocol bonds: "auto" takes them
     ("brownian", "minimum_separation"): 0.3e-9,  # below the radius
     ("shear", "bonds"): "distance",
+    ("rigidity", "bonds"): "distance",
 }
 
 # options the stage converts before the call (the recorded calls must still differ)
@@ -105,6 +111,9 @@ TRANSFORMED = {
     ("elastic", "shear_stiffness"): "default k_n / 10 made explicit",
     ("shear", "shear_stiffness"): "default k_n / 10 made explicit",
     ("shear", "directions"): "pairs become tuples",
+    ("rigidity", "bonds"): "selects from_packing or from_pairs",
+    ("rigidity", "radius"): "0 means none",
+    ("rigidity", "shear_stiffness"): "default k_n / 10 made explicit",
     ("moduli", "matrix"): "[E, nu] becomes a Phase",
     ("moduli", "inclusions"): "[E, nu] pairs become Phases",
     ("moduli", "three_point"): "passed as three_point",

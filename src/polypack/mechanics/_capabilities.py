@@ -1,4 +1,4 @@
-"""Registry declarations of the mechanics stages (``[analysis.elastic]``, ``[analysis.shear]``).
+"""Registry declarations of the mechanics stages (``[analysis.elastic]``, ``[analysis.shear]``, ``[analysis.rigidity]``).
 
 Kind ``"mechanics"`` (:data:`polypack.registry.STAGE_KINDS`): a study names them in
 ``[analysis.NAME]`` tables beside the analyses, and they run on the finished pack.
@@ -240,4 +240,53 @@ register(
     doc="full-field effective stiffness of the pack's voxel image (FFT Lippmann-Schwinger, CG; docs/fullfield.md)",
     requires=("polypack.mechanics:homogenize",), preflight="polypack.mechanics.stages:preflight_3d",
     check=_check_homogenize, kernels=("polypack._kernels.voxel",),
+)
+
+
+@dataclass(frozen=True)
+class RigidityOptions:
+    bonds: str = _B["bonds"]
+    epsilon: float = _B["epsilon"]
+    normal_stiffness: float = _B["normal_stiffness"]
+    shear_stiffness: float = _B["shear_stiffness"]
+    rotations: bool = option(True, v.boolean, "particles rotate (False: translations only; Z_c = 2 instead of 4)")
+    radius: float = option(0.25e-6, v.non_negative,
+                           "mean radius the lengths are rescaled to, m (as [analysis.elastic]; 0 keeps the pack's unit)",
+                           unit="m")
+    solver: str = option("auto", v.choice("auto", "direct", "amg", "cg"),
+                         "solver of the elastic tensor the backbone comes from (as [analysis.elastic])")
+    force_fraction: float = option(0.01, v.positive,
+                                   "backbone: bonds with a force above this fraction of the mean bond force under a unit strain")
+    samples: int = option(8, v.int_min(1), "random zero-mode vectors drawn to find the rigid clusters")
+
+
+#: Summary scalars of ``[analysis.rigidity]`` (``rigidity.<key>``; docs/rigidity.md).
+RIGIDITY_SCALARS = (
+    "floppy_modes",               # zero modes of the relaxing part (elastic_tensor's count)
+    "floppy_per_particle",
+    "floppy_modes_floating",      # internal zero modes of clusters that do not wrap the box
+    "states_of_self_stress",      # S = F - (nd N - 3 M - 3 K) (index theorem)
+    "coordination", "isostatic_coordination",
+    "n_rattlers", "n_clusters",
+    "largest_cluster_fraction",   # particles in the largest rigid cluster / N
+    "rigid_fraction",             # particles in rigid clusters of two or more / N
+    "rigid_bond_fraction",
+    "percolating",                # 1 when a rigid cluster wraps every periodic axis
+    "backbone_fraction",          # particles joined by a load-bearing bond under any unit strain / N
+    "backbone_bond_fraction",
+    "backbone_coordination",      # 2 M_b / N_b of that backbone
+    "excess_coordination",        # backbone_coordination - isostatic_coordination
+    "nonaffinity",                # Gamma = <|u - u_aff|^2> / (gamma^2 d^2), mean of the three shears
+    "fabric_anisotropy", "backbone_fabric_anisotropy",
+    "seconds",
+)
+
+register(
+    "mechanics", "rigidity", RigidityOptions, "polypack.mechanics.stages:run_rigidity",
+    Outputs(scalars=RIGIDITY_SCALARS,
+            flatten=("shear_fabric", "backbone_shear_fabric", "nonaffinity_modes", "backbone_coordination_modes")),
+    doc="rigidity of the bonded network: floppy modes, rigid clusters, percolation, load-bearing backbone, "
+        "non-affinity, fabric (the intermediate step of §4 of 003_873b69fc71c74cf6.txt)",
+    requires=("polypack.mechanics:rigidity",), preflight="polypack.mechanics.stages:preflight_3d",
+    kernels=("polypack._kernels.cells", "polypack._kernels.network", "polypack._kernels.rigidity"),
 )

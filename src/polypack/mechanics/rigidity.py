@@ -394,9 +394,6 @@ def rigidity(network, elastic=None, *, rotations=True, central=False, force_frac
     ------
     InvalidInputError
         For a 2D packing, walls, or bad options.
-    InfeasibleError
-        From :func:`~polypack.mechanics.elastic_tensor` when no cluster wraps the box
-        (``central=False``).
     """
     import time
 
@@ -441,7 +438,7 @@ def rigidity(network, elastic=None, *, rotations=True, central=False, force_frac
         floating = np.flatnonzero(~wrap)
         rot = _remove_rigid_rotations(network, res, floating, nd, True) if floating.size else 0
         z, dmet = res["z"], res["d"]
-        active = (label >= 0) & wrap[np.maximum(label, 0)]
+        active = (label >= 0) & (wrap[np.maximum(label, 0)] if wrap.size else False)
         # the count over the wrapping clusters alone (elastic_tensor's definition)
         if floating.size:
             res_a = _nullspace(network, active, rotations=False, central=True, samples=0)
@@ -457,8 +454,12 @@ def rigidity(network, elastic=None, *, rotations=True, central=False, force_frac
                 et = elastic_tensor(network, rotations=rotations, floppy_samples=samples)
         label_b, spans_b = network.components(backbone=True)
         wrap = spans_b.any(axis=1)
-        active = (label_b >= 0) & wrap[np.maximum(label_b, 0)]
-        if getattr(et, "floppy_samples", None) is not None and et.floppy_modes is not None:
+        active = (label_b >= 0) & (wrap[np.maximum(label_b, 0)] if wrap.size else False)
+        if not active.any():  # no cluster wraps the box: nothing relaxes under strain (floppy)
+            z = np.full((samples, n_all, nd), np.nan)
+            dmet = np.zeros((n_all, nd))
+            floppy = 0
+        elif getattr(et, "floppy_samples", None) is not None and et.floppy_modes is not None:
             z = np.array(et.floppy_samples, dtype=np.float64)
             dmet = np.array(et.floppy_metric, dtype=np.float64)
             floppy = int(et.floppy_modes)
@@ -554,7 +555,11 @@ def rigidity(network, elastic=None, *, rotations=True, central=False, force_frac
     # ------------------------------------------------- backbone, non-affinity, fabric
     normals = np.asarray(network.normal)
     bb = bb_part = bb_frac = bb_bfrac = bb_z = bb_zm = gam = gam_m = bfab = bfab_an = bshear = None
-    if et is not None:
+    if et is not None and not active.any():
+        bb = np.zeros((6, m_all), bool)
+        bb_part = np.zeros(n_all, bool)
+        bb_frac = bb_bfrac = 0.0
+    elif et is not None:
         from .export import bond_forces
 
         bb = np.zeros((6, m_all), bool)

@@ -1,4 +1,4 @@
-"""Study stages of the mechanics (``[analysis.elastic]``, ``[analysis.shear]`` of ``polypack run``).
+"""Study stages of the mechanics (``[analysis.elastic]``, ``[analysis.rigidity]``, ``[analysis.shear]`` of ``polypack run``).
 
 Each function adapts one resolved ``[analysis.X]`` table (declared in
 :mod:`polypack.mechanics._capabilities`) to the public API and returns plain data for
@@ -30,7 +30,8 @@ import numpy as np
 
 from ..errors import InfeasibleError, InvalidInputError
 
-__all__ = ["network_of", "run_elastic", "run_shear", "preflight_3d", "preflight_shear", "BOND_RULES", "SHEAR_KEYS"]
+__all__ = ["network_of", "run_elastic", "run_rigidity", "run_shear", "preflight_3d", "preflight_shear", "BOND_RULES",
+           "SHEAR_KEYS"]
 
 BOND_RULES = ("auto", "distance", "protocol")
 
@@ -147,7 +148,9 @@ def run_elastic(packing, opts, seed):
         return _bondless("ElasticTensor", exc)
     radius = opts.get("radius", 0.25e-6)
     et = _prefixed(path, elastic_tensor, net, rotations=opts.get("rotations", True),
-                   radius=radius if radius > 0 else None, solver=opts.get("solver", "auto"))
+                   radius=radius if radius > 0 else None, solver=opts.get("solver", "auto"),
+                   floppy_samples=_RIGIDITY_SAMPLES)
+    _remember(packing, _tensor_key(opts), net, rule, et)
     kn, ks = _stiffnesses(opts)
     out = {"estimator": "ElasticTensor", "bonds": rule,
            "epsilon": float(opts.get("epsilon", 0.01)) if rule == "distance" else None,
@@ -155,6 +158,70 @@ def run_elastic(packing, opts, seed):
            "radius_m": radius if radius > 0 else None}
     out.update(et.to_dict())
     out["floppy"] = int(not et.rigid)  # summary flag: its mean is the fraction of floppy structures
+    return out
+
+
+# [analysis.elastic] runs before [analysis.rigidity] (stages run in name order, on the same
+# pack object): it keeps its network and tensor here, with floppy-space samples drawn from its
+# own factorization (a few solves), so the rigidity stage adds only its bookkeeping.
+_RIGIDITY_SAMPLES = 8
+_LAST = {}
+
+
+def _tensor_key(opts):
+    kn, ks = _stiffnesses(opts)
+    return (opts.get("bonds", "auto"), float(opts.get("epsilon", 0.01)), kn, ks, bool(opts.get("rotations", True)),
+            float(opts.get("radius", 0.25e-6)), opts.get("solver", "auto"))
+
+
+def _remember(packing, key, net, rule, et):
+    _LAST.clear()
+    _LAST.update(packing=packing, key=key, net=net, rule=rule, et=et)
+
+
+def _recall(packing, key):
+    """The network and tensor [analysis.elastic] made for this very pack and these options, or None."""
+    if _LAST.get("packing") is packing and _LAST.get("key") == key:
+        return _LAST["net"], _LAST["rule"], _LAST["et"]
+    return None
+
+
+def run_rigidity(packing, opts, seed):
+    """``[analysis.rigidity]``: :func:`polypack.mechanics.rigidity` of the realized pack's bonded network.
+
+    Floppy modes, rigid clusters and their percolation, the load-bearing backbone under
+    the six unit strains, the non-affinity and the fabric (docs/rigidity.md; the
+    intermediate step §4 of 003_873b69fc71c74cf6.txt asks for). The network is that of
+    :func:`network_of`; when ``[analysis.elastic]`` ran on the same pack with the same
+    bond, rotation, radius and solver options, its tensor (and the floppy-space samples
+    drawn from its factorization) is reused, otherwise the tensor is computed here.
+    Returns :meth:`Rigidity.to_dict` plus the bond rule; ``percolating`` is 0/1 so that its
+    ensemble mean is the fraction of percolating structures. ``seed`` is unused (the
+    samples have a fixed seed: the result is deterministic).
+    """
+    from .elastic import elastic_tensor
+    from .rigidity import rigidity
+
+    path = "analysis.rigidity"
+    samples = int(opts.get("samples", _RIGIDITY_SAMPLES))
+    key = _tensor_key(opts)
+    hit = _recall(packing, key)
+    if hit is not None and (hit[2].floppy_samples is None or hit[2].floppy_samples.shape[0] == samples):
+        net, rule, et = hit
+        reused = True
+        _LAST.clear()  # used once: do not keep the pack and its tensor alive
+    else:
+        net, rule = _prefixed(path, network_of, packing, opts, path)
+        radius = opts.get("radius", 0.25e-6)
+        et = _prefixed(path, elastic_tensor, net, rotations=opts.get("rotations", True),
+                       radius=radius if radius > 0 else None, solver=opts.get("solver", "auto"),
+                       floppy_samples=samples)
+        reused = False
+    res = _prefixed(path, rigidity, net, et, rotations=opts.get("rotations", True),
+                    force_fraction=opts.get("force_fraction", 0.01), samples=samples)
+    out = {"estimator": "Rigidity", "bonds": rule, "elastic_reused": reused}
+    out.update(res.to_dict())
+    out["percolating"] = int(res.percolating)
     return out
 
 
