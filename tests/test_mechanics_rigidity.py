@@ -369,6 +369,10 @@ def test_rigidity_stage_on_a_floppy_pack_finishes():
     pk = pp.pack(np.full(60, 0.5), volume_fraction=0.3, seed=3, progress=False)
     out = run_rigidity(pk, {"epsilon": 0.01}, None)
     assert out["percolating"] == 0 and out["backbone_fraction"] == 0.0
+    # not a single bond (a dilute pack): a floppy record, not an error that stops the study
+    dilute = pp.Packing(np.array([[1.0, 1, 1], [5, 5, 5]]), np.full(2, 0.5), np.full(3, 10.0))
+    out = run_rigidity(dilute, {"epsilon": 0.01}, None)
+    assert out["status"] == "floppy" and out["percolating"] == 0 and out["n_bonds"] == 0
 
 
 @pytest.mark.parametrize("table,msg", [({"force_fraction": 0}, "force_fraction"), ({"samples": 0}, "samples"),

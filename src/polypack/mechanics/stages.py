@@ -211,7 +211,16 @@ def run_rigidity(packing, opts, seed):
         reused = True
         _LAST.clear()  # used once: do not keep the pack and its tensor alive
     else:
-        net, rule = _prefixed(path, network_of, packing, opts, path)
+        try:
+            net, rule = _prefixed(path, network_of, packing, opts, path)
+        except InfeasibleError as exc:  # not a single bond: floppy, nothing rigid, no backbone
+            if "has no bonds" not in str(exc):
+                raise
+            n = int(np.asarray(packing.radii).shape[0])
+            return {"estimator": "Rigidity", "status": "floppy", "floppy_reason": str(exc).split(": ", 1)[-1],
+                    "n_particles": n, "n_bonds": 0, "coordination": 0.0, "n_rattlers": n, "percolating": 0,
+                    "largest_cluster_fraction": 0.0, "rigid_fraction": 0.0, "backbone_fraction": 0.0,
+                    "backbone_bond_fraction": 0.0}
         radius = opts.get("radius", 0.25e-6)
         et = _prefixed(path, elastic_tensor, net, rotations=opts.get("rotations", True),
                        radius=radius if radius > 0 else None, solver=opts.get("solver", "auto"),
