@@ -79,6 +79,16 @@ def test_two_systems_give_two_records(tmp_path):
     assert 1.0 < float(row["homogenize1.young_ratio"]) < 1.5 < float(row["homogenize0.young_ratio"])  # custom, glass/epoxy
 
 
+def test_an_unconverged_solve_records_no_moduli(tmp_path):
+    st = _study({"materials": ["glass/epoxy"], "resolution": 8, "max_iterations": 1}, moduli=False)
+    st["study"]["realizations"] = 1
+    pp.ensemble.run_study(st, tmp_path / "r", progress=False)
+    with open(tmp_path / "r" / "summary.csv", newline="") as fh:
+        row = next(csv.DictReader(fh))
+    assert float(row["homogenize.converged"]) == 0
+    assert not row.get("homogenize.young_ratio") and not row.get("homogenize.stiffness.0-0")
+
+
 @pytest.mark.parametrize("bad, match", [
     ({"matrix": [1e9, 0.3]}, "both matrix and inclusions"),
     ({"materials": ["steel/air"]}, "unknown material system"),
