@@ -118,6 +118,7 @@ def plot(rows, path):
             ax.errorbar(f, np.asarray(sel[0]["height"]), xerr=e, fmt="-o", ms=3, capsize=2, color=f"C{j}",
                         label=f"{label}: slope {slope:+.3f}±{se:.3f}/d (n={len(sel)})")
         ax.axvline(1.0, color="0.6", ls="--")
+        ax.set_xlim(0.0, 2.1)
         ax.set_xlabel("small-sphere volume fraction / its deposit mean (–)")
         ax.set_ylabel("height above the floor (large diameters)")
         ax.set_title(f"3D deposits, rule = {rule}")
