@@ -337,3 +337,33 @@ def test_analyze_runs_the_registered_stages_with_the_study_units_and_defaults(tm
     assert d["rdf"]["r_max"] == 2.5 and d["rdf"]["dr"] == 0.05  # length units, as in [analysis.rdf]
     with pytest.raises(SystemExit):  # an option of an analysis that is not selected is an error, not ignored
         main(["analyze", str(tmp_path / "p.gsd"), "--contacts", "--r-max", "2.0"])
+
+
+def test_api_and_study_share_the_checks_of_the_options_dataclass():
+    """pp.brownian and pp.vem check their keywords through the dataclass the study uses: the same values
+    are refused (same reason) and the same edge values accepted (hamaker = 0, rolling_moment = inf)."""
+    from polypack.study import validate
+
+    base = {"study": {"seed": 1}, "psd": {"model": "monodisperse", "n": 40}, "output": {"plots": False}}
+    for kw, reason in (({"hamaker": -1.0}, "must be >= 0"), ({"rolling_moment": float("nan")}, "must be finite"),
+                       ({"bond_width": 0.0}, "must be > 0")):
+        key, value = next(iter(kw.items()))
+        with pytest.raises(InvalidInputError, match=f"^{key}=.*: {reason}"):
+            pp.brownian(40, bonds="tangential", **kw)
+        with pytest.raises(InvalidInputError, match=f"^protocol.{key} = .*: {reason}"):
+            validate({**base, "protocol": {"kind": "brownian", "bonds": "tangential", **kw}})
+    ok = validate({**base, "protocol": {"kind": "brownian", "bonds": "tangential", "rolling_moment": float("inf"),
+                                        "hamaker": 0.0}})
+    assert ok["protocol"]["rolling_moment"] == float("inf") and ok["protocol"]["hamaker"] == 0.0
+    with pytest.raises(InvalidInputError, match=r"^growth_factor=1.0: must be in \(1, 1.5\]"):
+        pp.vem(64, growth_factor=1.0)
+    with pytest.raises(InvalidInputError, match=r"^protocol.growth_factor = 1.0: must be in \(1, 1.5\]"):
+        validate({**base, "protocol": {"kind": "vem", "growth_factor": 1.0}})
+    # the defaults of the public functions are the declared ones
+    import inspect
+
+    for func, cap in ((pp.vem, "vem"), (pp.brownian, "brownian")):
+        specs = registry.get("protocol", cap).specs()
+        for k, p in inspect.signature(func).parameters.items():
+            if k in specs and p.default is not inspect.Parameter.empty:
+                assert p.default == specs[k].default, (cap, k)

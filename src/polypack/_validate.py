@@ -126,6 +126,13 @@ def non_negative(v):
     return v
 
 
+@_describe("number > 0 or inf")
+def positive_or_inf(v):
+    if isinstance(v, (int, float)) and not isinstance(v, bool) and v == math.inf:
+        return float(v)
+    return positive(v)
+
+
 @_describe("number in (0, 1)")
 def fraction_open(v):
     v = number(v)

@@ -217,29 +217,33 @@ class BrownianOptions:
     temperature: float = option(None, v.positive, "temperature", unit="K")
     viscosity: float = option(None, v.positive, "solvent viscosity", unit="Pa s")
     relative_permittivity: float = option(None, v.positive, "relative permittivity of the solvent")
-    hamaker: float = option(None, v.positive, "Hamaker constant", unit="J")
+    hamaker: float = option(None, v.non_negative, "Hamaker constant", unit="J")
     ionic_strength: float = option(None, v.positive, "ionic strength (or give debye_length, not both)", unit="mol/m³")
     debye_length: float = option(None, v.positive, "Debye length 1/κ", unit="m")
-    minimum_separation: float = option(None, v.positive, "surface separation of the primary minimum", unit="m")
-    model: str = option(None, v.choice("auto", "hhf", "lsa"), "double-layer model (auto: HHF for κa >= 5, else LSA)")
+    minimum_separation: float = option(None, v.non_negative, "surface separation of the primary minimum", unit="m")
+    model: str = option("auto", v.choice("auto", "hhf", "lsa"), "double-layer model (auto: HHF for κa >= 5, else LSA)",
+                        fill=False)
     time_step: float = option(None, v.positive, "time step (default: rms step 0.2 Debye lengths)", unit="s")
-    bond_width: float = option(None, v.positive, "capture separation and bond shell width (1 nm)", unit="m")
+    bond_width: float = option(1e-9, v.positive, "capture separation and bond shell width", unit="m", fill=False)
     cutoff: float = option(None, v.positive, "centre-distance cutoff of the DLVO force (2.5 a)", unit="m")
     record_interval: float = option(None, v.positive, "simulated seconds between records (0.05 a²/D0)", unit="s")
     stable_window: float = option(None, v.positive, "seconds over which the structure must be stable (2 a²/D0)",
                                   unit="s")
-    coordination_tolerance: float = option(None, v.positive, "relative change of coordination allowed over the window")
-    cluster_tolerance: float = option(None, v.positive, "change of the largest-cluster fraction allowed over the window")
+    coordination_tolerance: float = option(0.01, v.positive, "relative change of coordination allowed over the window",
+                                           fill=False)
+    cluster_tolerance: float = option(0.005, v.positive, "change of the largest-cluster fraction allowed over the window",
+                                      fill=False)
     min_time: float = option(None, v.non_negative, "shortest simulated time (stable_window)", unit="s")
     max_time: float = option(None, v.positive, "simulated-time budget (60 a²/D0)", unit="s")
     max_steps: int = option(None, v.int_min(1), "step budget")
-    bonds: str = option(None, v.choice("flexible", "rigid", "tangential"),
+    bonds: str = option("flexible", v.choice("flexible", "rigid", "tangential"), fill=False, doc=
                         "bonded spheres roll freely (flexible, default), bonded clusters move as rigid bodies "
                         "(rigid), or bonds resist sliding and rolling elastically (tangential)")
     sliding_stiffness: float = option(None, v.non_negative, "tangential bonds: sliding spring stiffness", unit="N/m")
     rolling_stiffness: float = option(None, v.non_negative, "tangential bonds: rolling stiffness", unit="J")
-    rolling_moment: float = option(None, v.positive, "tangential bonds: critical rolling moment", unit="N m")
-    hydrodynamics: str = option(None, v.choice("free", "lubrication"),
+    rolling_moment: float = option(None, v.positive_or_inf, "tangential bonds: critical rolling moment (inf: no yield)",
+                                   unit="N m")
+    hydrodynamics: str = option("free", v.choice("free", "lubrication"), fill=False, doc=
                                 "pair mobility: free draining (default, the seed's model) or with the Honig et al. "
                                 "(1971) lubrication correction of the relative normal motion of close pairs")
     lubrication_range: float = option(None, v.positive, "lubrication: gap beyond which pairs are free draining, m "

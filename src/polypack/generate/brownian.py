@@ -99,9 +99,11 @@ import warnings
 
 import numpy as np
 
+from .. import registry as _registry
 from .._util import as_seed_sequence, progress_bar, seed_record
 from ..errors import InfeasibleError, InvalidInputError, OverlapError
 from ..packing import Packing
+from ._capabilities import BrownianOptions
 from .dlvo import DLVOParameters, _terms, dlvo_extrema, dlvo_parameters
 
 __all__ = ["brownian", "BrownianSimulation", "brownian_bonds", "BOND_MODELS", "HYDRODYNAMICS",
@@ -608,10 +610,15 @@ def _initial_positions(n, a, box_len, min_gap, seed):
     return np.asarray(pk.positions) * scale
 
 
+#: Defaults of :func:`brownian`: those declared by :class:`polypack.generate._capabilities.BrownianOptions`
+#: (one declaration for the API, the study's ``[protocol] kind = "brownian"`` and ``polypack brownian``).
+_DEFAULTS = _registry.defaults(BrownianOptions)
+
+
 def brownian(
     n,
-    volume_fraction=0.4,
-    surface_potential=0.015,
+    volume_fraction=_DEFAULTS["volume_fraction"],
+    surface_potential=_DEFAULTS["surface_potential"],
     *,
     seed=None,
     radius=None,
@@ -622,23 +629,23 @@ def brownian(
     ionic_strength=None,
     debye_length=None,
     minimum_separation=None,
-    model="auto",
+    model=_DEFAULTS["model"],
     time_step=None,
-    bond_width=1e-9,
+    bond_width=_DEFAULTS["bond_width"],
     cutoff=None,
     record_interval=None,
     stable_window=None,
-    coordination_tolerance=0.01,
-    cluster_tolerance=0.005,
+    coordination_tolerance=_DEFAULTS["coordination_tolerance"],
+    cluster_tolerance=_DEFAULTS["cluster_tolerance"],
     min_time=None,
     max_time=None,
     max_steps=None,
     progress=None,
-    bonds="flexible",
+    bonds=_DEFAULTS["bonds"],
     sliding_stiffness=None,
     rolling_stiffness=None,
     rolling_moment=None,
-    hydrodynamics="free",
+    hydrodynamics=_DEFAULTS["hydrodynamics"],
     lubrication_range=None,
 ) -> Packing:
     """Coagulated colloidal gel by Brownian dynamics with DLVO forces.
@@ -752,6 +759,17 @@ def brownian(
         is returned.
     """
     n = _check_int("n", n, 16)
+    # one declaration: every given option is checked by its field of BrownianOptions (as in a study and the CLI)
+    given = dict(volume_fraction=volume_fraction, surface_potential=surface_potential, radius=radius,
+                 temperature=temperature, viscosity=viscosity, relative_permittivity=relative_permittivity,
+                 hamaker=hamaker, ionic_strength=ionic_strength, debye_length=debye_length,
+                 minimum_separation=minimum_separation, model=model, time_step=time_step, bond_width=bond_width,
+                 cutoff=cutoff, record_interval=record_interval, stable_window=stable_window,
+                 coordination_tolerance=coordination_tolerance, cluster_tolerance=cluster_tolerance,
+                 min_time=min_time, max_time=max_time, max_steps=max_steps, bonds=bonds,
+                 sliding_stiffness=sliding_stiffness, rolling_stiffness=rolling_stiffness,
+                 rolling_moment=rolling_moment, hydrodynamics=hydrodynamics, lubrication_range=lubrication_range)
+    _registry.check_call(BrownianOptions, {k: x for k, x in given.items() if x is not None})
     if bonds not in BOND_MODELS:
         raise InvalidInputError(f"bonds={bonds!r}: must be one of {', '.join(map(repr, BOND_MODELS))}")
     check_used(dict(bonds=bonds, hydrodynamics=hydrodynamics, sliding_stiffness=sliding_stiffness,
