@@ -16,9 +16,10 @@ every structure, floppy ones (G = 0) included: each model can say zero. A second
 three per-plane moduli of each structure (relative to their mean) against the fabric of the plane,
 ``<n_a^2 n_b^2>`` over all bonds and over that shear's backbone (relative to their mean).
 
-    python examples/rigidity_figure.py OUT FOLDER [FOLDER ...]
+    python examples/rigidity_figure.py OUT FOLDER [FOLDER ...] [--recompute]
 
-A FOLDER is a run folder (``realizations/*.json``) or a sweep folder holding run folders. Writes
+``--recompute`` (or a record without the stages) rebuilds the tensor and the rigidity from each
+realization's saved pack (the seed's bonds: eps = 0.01, kn = 100 N/m, ks = 10 N/m). A FOLDER is a run folder (``realizations/*.json``) or a sweep folder holding run folders. Writes
 OUT/rigidity_fig.png, OUT/rigidity_fabric.png, OUT/rigidity_fits.json and OUT/rigidity_fits.md.
 """
 
@@ -48,15 +49,18 @@ def load(folders):
     for f in folders:
         for run in _runs(Path(f)):
             try:
-                proto = json.loads((run / "study.resolved.json").read_text()).get("protocol", {})
+                doc = json.loads((run / "study.resolved.json").read_text())
+                proto = doc.get("protocol") or doc.get("study", {}).get("protocol", {})
             except (OSError, ValueError):
                 proto = {}
             kind = proto.get("kind", "?")
             for rj in sorted((run / "realizations").glob("r*.json")):
                 rec = json.loads(rj.read_text())
                 ana = rec.get("analysis", {})
-                if not all(k in ana for k in ("pores", "elastic", "rigidity")):
+                if "pores" not in ana:
                     continue
+                if RECOMPUTE or not all(k in ana for k in ("elastic", "rigidity")):
+                    ana = dict(ana, **_recompute(rj.with_suffix(".gsd")))
                 el, rg = ana["elastic"], ana["rigidity"]
                 g3 = np.asarray(el["shear_moduli"], dtype=float)
                 c = ana.get("contacts", {}).get("coordination", el.get("coordination"))
@@ -70,6 +74,23 @@ def load(folders):
                     bfab=np.asarray(rg.get("backbone_shear_fabric") or [np.nan] * 3, dtype=float),
                     seconds=rg.get("seconds"), el_seconds=el.get("seconds")))
     return rows
+
+
+RECOMPUTE = False
+
+
+def _recompute(gsd):
+    """Elastic tensor and rigidity of a saved pack, bonded by the seed's rule (eps = 0.01,
+    kn = 100 N/m, ks = 10 N/m, r0 = 0.25 µm): for studies without those stages, or ``--recompute``."""
+    import polypack as pp
+
+    pk = pp.io.read(str(gsd))
+    net = pp.mechanics.BondNetwork.from_packing(pk, epsilon=0.01, normal_stiffness=100.0, shear_stiffness=10.0)
+    et = pp.mechanics.elastic_tensor(net, radius=0.25e-6, floppy_samples=8)
+    r = pp.mechanics.rigidity(net, et)
+    el = et.to_dict()
+    el["coordination"] = net.coordination
+    return {"elastic": el, "rigidity": r.to_dict()}
 
 
 def _ramp(x, x0):
@@ -100,7 +121,7 @@ def fit_models(x_by_name, g):
             k = float(r @ g / max(r @ r, 1e-300))
             return float(np.sum((g - k * r) ** 2))
 
-        lo, hi = float(x.min()) - 1.0, float(x.max())
+        lo, hi = float(x.min()) - 3.0, float(x.max())
         grid = np.linspace(lo, hi, 400)
         x0 = float(grid[np.argmin([rss_of(v) for v in grid])])
         step = (hi - lo) / 399
@@ -135,6 +156,10 @@ def fit_models(x_by_name, g):
 
 
 def main(argv):
+    global RECOMPUTE
+    if "--recompute" in argv:
+        RECOMPUTE = True
+        argv = [a for a in argv if a != "--recompute"]
     if len(argv) < 3:
         print(__doc__)
         return 2
@@ -151,9 +176,15 @@ def main(argv):
         return 1
     g = np.array([r["G"] for r in rows]) * 1e-6
     xs = {"C - 4": np.array([r["C"] for r in rows]) - 4.0,
-          "Z_b - 4": np.array([np.nan if r["Zb"] is None else r["Zb"] for r in rows], dtype=float) - 4.0,
+          # no backbone (a floppy structure): Z_b taken as 0, below any threshold (the model says G = 0)
+          "Z_b - 4": np.array([0.0 if r["Zb"] is None else r["Zb"] for r in rows], dtype=float) - 4.0,
           "a": np.array([r["a"] for r in rows])}
     fits = fit_models(xs, g)
+    per_set = {}
+    for s_ in sorted({r["set"] for r in rows}):
+        sel = np.array([r["set"] == s_ for r in rows])
+        if sel.sum() >= 5:
+            per_set[s_] = fit_models({k: v[sel] for k, v in xs.items()}, g[sel])
     marker = {"brownian": ("^", "tab:red", "BD"), "vem": ("o", "tab:blue", "VEM")}
     fig, axes = plt.subplots(2, 3, figsize=(13, 7.5), gridspec_kw={"height_ratios": [2.2, 1]})
     for col, (xname, label) in enumerate((("C - 4", "coordination excess C − 4 (bonds per sphere)"),
@@ -222,7 +253,7 @@ def main(argv):
     plt.close(fig)
 
     table = [{k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in r.items()} for r in rows]
-    doc = {"n_structures": len(rows), "fits": fits, "fabric": stats, "structures": table}
+    doc = {"n_structures": len(rows), "fits": fits, "fits_per_set": per_set, "fabric": stats, "structures": table}
     tmp = out / ".rigidity_fits.json.tmp"
     tmp.write_text(json.dumps(doc, indent=1))
     os.replace(tmp, out / "rigidity_fits.json")
@@ -230,6 +261,11 @@ def main(argv):
     for name, f in sorted(fits.items(), key=lambda kv: kv[1]["aic"]):
         par = ", ".join(f"{k} = {v:.4g}" for k, v in f["params"].items())
         lines.append(f"| {name} | {f['predictor']} | {par} | {f['rms']:.4g} | {f['r2']:.3f} | {f['aic']:.1f} | {f['bic']:.1f} |")
+    for s_, fs in per_set.items():
+        lines += ["", f"{s_} alone:", "", "| model | parameters | RMS (MPa) | R² | AIC | BIC |", "|---|---|---|---|---|---|"]
+        for name, f in sorted(fs.items(), key=lambda kv: kv[1]["aic"]):
+            par = ", ".join(f"{k} = {v:.4g}" for k, v in f["params"].items())
+            lines.append(f"| {name} | {par} | {f['rms']:.4g} | {f['r2']:.3f} | {f['aic']:.1f} | {f['bic']:.1f} |")
     lines += ["", "| set | run | a | C | Z_b | percolating | largest rigid cluster | backbone | Γ | G′p (MPa) |",
               "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:

@@ -17,7 +17,7 @@ from _lattices import bcc, diamond, fcc, simple_cubic
 import polypack as pp
 from polypack.errors import InvalidInputError
 from polypack.mechanics import BondNetwork, elastic_tensor
-from polypack.mechanics.rigidity import deviatoric_norm, fabric_tensor, rigidity
+from polypack.mechanics.rigidity_analysis import deviatoric_norm, fabric_tensor, rigidity
 
 KN, KS = 100.0, 10.0
 
@@ -297,6 +297,15 @@ def test_fabric_helpers():
     assert deviatoric_norm(f) == pytest.approx(np.sqrt((1 / 6) ** 2 + 2 * (1 / 12) ** 2))
 
 
+def test_public_name_is_the_function():
+    """``pp.mechanics.rigidity`` stays the function once every mechanics module is imported
+    (a submodule of the same name would shadow it)."""
+    import polypack.mechanics.stages  # noqa: F401
+    import polypack.mechanics.rigidity_analysis  # noqa: F401
+
+    assert callable(pp.mechanics.rigidity) and pp.mechanics.rigidity is rigidity
+
+
 def test_bad_input():
     net = BondNetwork.from_packing(fcc(cells=2), epsilon=1e-6)
     with pytest.raises(InvalidInputError, match="force_fraction"):
@@ -383,3 +392,24 @@ def test_rigidity_stage_bad_options(table, msg):
     data = _study({"rigidity": table})
     with pytest.raises(InvalidInputError, match=msg):
         validate(data)
+
+
+def test_floppy_strain_modes_have_no_backbone():
+    """A straight chain wrapping x (rigid only against stretching along x): under eps_11 every
+    bond carries the same force (backbone = all bonds); under gamma_13 and gamma_12 the chain
+    tilts at no cost, its relaxed forces are round-off, and the backbone is empty (the floor
+    at 1e-4 of the affine force, not a fraction of the mean of round-off)."""
+    n = 6
+    pos = np.column_stack([np.arange(n) + 0.5, np.full(n, 2.0), np.full(n, 2.0)])
+    pk = pp.Packing(pos, np.full(n, 0.5), np.array([float(n), 4.0, 4.0]))
+    net = BondNetwork.from_packing(pk, epsilon=1e-6)
+    assert net.n_bonds == n
+    r = rigidity(net)
+    assert r.backbone_bonds[0].all()
+    assert not r.backbone_bonds[1].any() and not r.backbone_bonds[2].any()  # no affine force at all
+    # gamma_13, gamma_12 load every bond affinely, but the chain tilts at no cost: round-off only
+    assert r.elastic.stiffness[4, 4] == 0.0 and r.elastic.stiffness[5, 5] == 0.0
+    assert not r.backbone_bonds[4].any() and not r.backbone_bonds[5].any()
+    # each sphere has two collinear ball joints: it spins about the chain axis on its own,
+    # so no bond is rigid and nothing percolates, though the chain carries tension
+    assert not r.rigid_bonds.any() and not r.percolating

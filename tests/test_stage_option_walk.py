@@ -62,7 +62,7 @@ SINKS = {
     "rigidity": [("polypack.mechanics.network", "BondNetwork.from_packing", False),
                  ("polypack.mechanics.network", "BondNetwork.from_pairs", False),
                  ("polypack.mechanics.elastic", "elastic_tensor", False),
-                 ("polypack.mechanics.rigidity", "rigidity", True)],
+                 ("polypack.mechanics.rigidity_analysis", "rigidity", True)],
 }
 
 # tables every run of a stage needs (required options; shaking on, so that its options are used)

@@ -41,8 +41,8 @@ _LAZY = {
     "lammps_shear_input": "export",
     "fit_lammps_shear": "export",
     # rigidity: floppy modes, rigid clusters, load-bearing backbone, fabric (issue 36)
-    "rigidity": "rigidity",
-    "Rigidity": "rigidity",
+    "rigidity": "rigidity_analysis",
+    "Rigidity": "rigidity_analysis",
 }
 
 __all__ = sorted(_LAZY)

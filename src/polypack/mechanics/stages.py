@@ -200,7 +200,7 @@ def run_rigidity(packing, opts, seed):
     samples have a fixed seed: the result is deterministic).
     """
     from .elastic import elastic_tensor
-    from .rigidity import rigidity
+    from .rigidity_analysis import rigidity
 
     path = "analysis.rigidity"
     samples = int(opts.get("samples", _RIGIDITY_SAMPLES))

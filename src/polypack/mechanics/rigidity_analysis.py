@@ -48,6 +48,11 @@ SHEAR_PLANES = ((1, 2), (0, 2), (0, 1))
 _RIGID_TOL = 1e-6
 # Eigenvalue threshold of the count (generalized eigenvalues of H v = mu D v).
 _TAU = 1e-9
+# A relaxed bond force below this fraction of the mean affine bond force of the same unit
+# strain is round-off, not load (elastic_tensor's FLOPPY_TOLERANCE is 1e-8 on moduli, i.e.
+# 1e-4 on forces, which scale as the square root of the energy).
+_FORCE_FLOOR = 1e-4
+_VOIGT_PAIRS = ((0, 0), (1, 1), (2, 2), (1, 2), (0, 2), (0, 1))
 
 
 def fabric_tensor(normals, weights=None) -> np.ndarray:
@@ -134,8 +139,8 @@ class Rigidity:
     backbone_fraction : float or None
         ``backbone.mean()``.
     backbone_coordination : float or None
-        ``2 M_b / N_b`` of the union backbone (bonds in it over the particles they join);
-        ``backbone_coordination_modes`` per strain.
+        ``2 M_b / N_b`` of the union backbone (bonds in it over the particles they join;
+        None without a backbone); ``backbone_coordination_modes`` per strain (NaN where empty).
     nonaffinity : float or None
         ``Gamma = <|u - u_aff|^2> / (gamma^2 d^2)`` averaged over the three unit shears
         (``d`` the mean diameter, the mean over the relaxing particles);
@@ -380,7 +385,9 @@ def rigidity(network, elastic=None, *, rotations=True, central=False, force_frac
     force_fraction : float, default 0.01
         A bond is in the backbone of a unit strain when its force exceeds this fraction
         of the mean bond force of the relaxing part (floppy dangling parts carry exactly
-        none: any small fraction separates them; 1.0 gives the "strong" network).
+        none: any small fraction separates them; 1.0 gives the "strong" network), and
+        1e-4 of the mean affine bond force of that strain (below it a force is round-off:
+        a floppy strain mode has no backbone).
     samples : int, default 8
         Random zero-mode vectors drawn to decide the rigid clusters and participation.
     rigid_tol : float, default 1e-6
@@ -563,21 +570,37 @@ def rigidity(network, elastic=None, *, rotations=True, central=False, force_frac
         from .export import bond_forces
 
         bb = np.zeros((6, m_all), bool)
+        # the affine bond forces |K eps b| of each unit strain: a relaxed force below
+        # _FORCE_FLOOR of their mean is round-off (a floppy strain mode relaxes every force away)
+        scale = float(et.length_scale) / (2.0 * float(np.mean(network.packing.radii)))
+        b = np.asarray(network.branch) * scale
+        kn_b = np.asarray(network.normal_stiffness)[:, None]
+        ks_b = np.asarray(network.shear_stiffness)[:, None]
         for k_mode, name in enumerate(MODES):
             f = np.linalg.norm(bond_forces(network, et, name), axis=1)
+            p_, q_ = _VOIGT_PAIRS[k_mode]
+            eb = np.zeros_like(b)
+            if p_ == q_:
+                eb[:, p_] = b[:, p_]
+            else:
+                eb[:, p_] = 0.5 * b[:, q_]
+                eb[:, q_] = 0.5 * b[:, p_]
+            ebn = np.sum(eb * normals, axis=1)[:, None]
+            f_aff = np.linalg.norm(kn_b * ebn * normals + ks_b * (eb - ebn * normals), axis=1)
             mean = float(f[on_a].mean()) if on_a.any() else 0.0
-            bb[k_mode] = on_a & (f > ff * mean) if mean > 0 else np.zeros(m_all, bool)
+            floor = _FORCE_FLOOR * float(f_aff[on_a].mean()) if on_a.any() else 0.0
+            bb[k_mode] = on_a & (f > max(ff * mean, floor)) if mean > 0 else np.zeros(m_all, bool)
         union = bb.any(axis=0)
         bb_part = np.zeros(n_all, bool)
         bb_part[bi[union]] = True
         bb_part[bj[union]] = True
         bb_frac = float(bb_part.mean())
         bb_bfrac = float(union.mean())
-        bb_z = 2.0 * float(union.sum()) / max(int(bb_part.sum()), 1)
+        bb_z = 2.0 * float(union.sum()) / max(int(bb_part.sum()), 1) if union.any() else None
         bb_zm = []
         for k_mode in range(6):
             ends = np.unique(np.concatenate([bi[bb[k_mode]], bj[bb[k_mode]]]))
-            bb_zm.append(2.0 * float(bb[k_mode].sum()) / max(ends.size, 1))
+            bb_zm.append(2.0 * float(bb[k_mode].sum()) / ends.size if ends.size else np.nan)
         bb_zm = np.array(bb_zm)
         u = np.asarray(et.nonaffine_displacements)
         d_mean = float(et.length_scale)
