@@ -265,6 +265,14 @@ MUTANTS = [
            "tables = cap.meta_tables() if cap is not None else ()",
            "tables = (\"shake\", \"scrm\", \"brownian\")",
            ("tests/test_declarations.py",), "hard-coded protocol statistics (issue 30)"),
+    Mutant("e-cli-flag-dropped", "src/polypack/_cli/_generated.py",
+           "        table[key] = value", "        pass",
+           ("tests/test_declarations.py::test_a_toy_protocol_and_mechanics_stage_are_one_dataclass_one_function_one_register",),
+           "a generated CLI flag checked but never passed on (issue 30)"),
+    Mutant("e-cli-unit-dropped", "src/polypack/_cli/_generated.py",
+           'unit = f" \\\\[{spec.unit}]" if spec.unit else ""', 'unit = ""',
+           ("tests/test_declarations.py::test_every_capability_is_one_declaration_cli_study_docs",),
+           "the CLI help loses the field's unit (issue 30)"),
     Mutant("e-ci-dof", E + "runner.py",
            "t_quantile(cnt - 1)", "t_quantile(cnt)",
            (T_EB, "tests/test_ensemble.py"), "off-by-one (degrees of freedom)"),
@@ -862,7 +870,7 @@ def _copy_tree(dest: Path):
     if dest.exists():
         shutil.rmtree(dest)
     ignore = shutil.ignore_patterns("__pycache__", "*.pyc", ".git", "*.egg-info", ".pytest_cache")
-    for name in ("src", "tests", "examples", "pyproject.toml"):
+    for name in ("src", "tests", "examples", "docs", "pyproject.toml"):  # docs: tests check generated pages
         s = ROOT / name
         if s.is_dir():
             shutil.copytree(s, dest / name, ignore=ignore)  # copy2: keeps mtimes
