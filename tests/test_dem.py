@@ -308,6 +308,11 @@ def test_trajectory_gsd(random_net, tmp_path):
         assert np.all(np.abs(f.particles.position) <= 0.5 * random_net.packing.box + 1e-9)
         # xz tilt (shear along x, normal z) equals the strain logged with the frame
         assert f.configuration.box[4] == pytest.approx(float(f.log["polypack/strain"][0]), rel=1e-6)
+        # frame 4 is the end of a cycle (strain ~ 1e-19): check a quarter period too, with abs=0
+        f1 = t[1]
+        strain = float(f1.log["polypack/strain"][0])
+        assert abs(strain) > 1e-5
+        assert f1.configuration.box[4] == pytest.approx(strain, rel=1e-6, abs=0)
         assert np.any(f.log["bonds/normal_force"] != 0)
 
 
