@@ -266,7 +266,17 @@ class DepositOptions:
 
 
 _P = "polypack.generate.protocols:"
-register("protocol", "brownian", BrownianOptions, _P + "run_brownian", Outputs(meta=("brownian",)), label="Brownian",
+#: Words of the Brownian-dynamics statistics in the report (``protocol.brownian.<key>`` in summary.csv).
+BROWNIAN_WORDS = {
+    "brownian.coordination": "coordination (bonds per sphere) of the gel", "brownian.n_bonds": "bonds",
+    "brownian.clusters": "clusters", "brownian.largest_cluster": "spheres in the largest cluster",
+    "brownian.steps": "BD steps", "brownian.simulated_time": "simulated time, s",
+    "brownian.converged": "structure stable within the budget", "brownian.time_step": "time step, s",
+    "brownian.brownian_time": "Brownian time a²/D0, s", "brownian.wall_time": "wall time, s",
+}
+
+register("protocol", "brownian", BrownianOptions, _P + "run_brownian", Outputs(meta=("brownian",), labels=BROWNIAN_WORDS),
+         label="Brownian",
          doc="colloidal gel by Brownian dynamics with DLVO forces, §2.2 of 003_873b69fc71c74cf6.txt",
          requires=("polypack.generate:brownian",), check=_P + "check_brownian", preflight=_P + "preflight_brownian",
          kernels=("polypack._kernels.bd",))
