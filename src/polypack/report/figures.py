@@ -549,6 +549,7 @@ def moduli_vs_c_figure(groups, title=""):
                 kind = g["label"].split(" (")[0]
                 col = f"C{kinds.index(kind)}"
                 c, _ = ms(g["c"])
+                c += 0.012 * kinds.index(kind)  # protocols side by side at the same c
                 first = kind not in seen
                 seen.add(kind)
                 if "three_point_lower" in g["est"]:
