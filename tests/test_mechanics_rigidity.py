@@ -10,6 +10,8 @@ a percolating rigid cluster has G = 0).
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from _lattices import bcc, diamond, fcc, simple_cubic
@@ -413,3 +415,23 @@ def test_floppy_strain_modes_have_no_backbone():
     # each sphere has two collinear ball joints: it spins about the chain axis on its own,
     # so no bond is rigid and nothing percolates, though the chain carries tension
     assert not r.rigid_bonds.any() and not r.percolating
+
+
+def test_viewer_fields_reach_the_report(tmp_path):
+    """The report's viewer takes the backbone, rigid-cluster, non-affine and participation
+    fields of a pack (finite, one per sphere; categories for backbone and clusters)."""
+    from polypack.report.viewer import particle_fields
+
+    net, tet_i, tri_i, dim_i = _with_bodies()
+    r = rigidity(net, samples=8)
+    f = r.viewer_fields()
+    assert set(f) == {"backbone", "rigid_cluster", "nonaffine_displacement", "floppy_participation"}
+    assert f["rigid_cluster"][dim_i].tolist() == [11, 11] and f["backbone"][tet_i].sum() == 0
+    enc = particle_fields(net.packing, coordination=False, fields=f)
+    assert enc["backbone"]["kind"] == "category" and enc["rigid_cluster"]["kind"] == "category"
+    assert enc["nonaffine_displacement"]["kind"] == "scale"
+    pp.io.write(tmp_path / "p.gsd", net.packing)
+    html = pp.report.report(tmp_path / "p.gsd", tmp_path / "p.html", fields=f, color="backbone")
+    assert Path(html).exists() and "rigid_cluster" in Path(html).read_text()
+    with pytest.raises(InvalidInputError, match="mode"):
+        r.viewer_fields("44")

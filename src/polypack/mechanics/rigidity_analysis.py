@@ -178,6 +178,25 @@ class Rigidity:
             return None
         return self.backbone_coordination - self.isostatic_coordination
 
+    def viewer_fields(self, mode="13") -> dict:
+        """Per-particle colour fields for the report's 3D viewer (``pp.report.report(pack,
+        fields=r.viewer_fields())``): ``backbone`` (1 in the load-bearing backbone of any unit
+        strain, else 0), ``rigid_cluster`` (the 11 largest rigid clusters 0-10, every other
+        sphere and the rattlers 11), ``nonaffine_displacement`` (``|u - u_aff|`` per unit
+        strain of ``mode``, in mean diameters; 0 where undetermined) and
+        ``floppy_participation`` (0 for rattlers)."""
+        if str(mode) not in MODES:
+            raise InvalidInputError(f"mode={mode!r}: allowed are {', '.join(MODES)} (Voigt, engineering shear)")
+        out = {"rigid_cluster": np.where((self.cluster >= 0) & (self.cluster < 11), self.cluster, 11),
+               "floppy_participation": np.nan_to_num(self.participation, nan=0.0)}
+        if self.backbone is not None:
+            out["backbone"] = self.backbone.astype(np.int64)
+        et = self.elastic
+        if et is not None:
+            u = np.asarray(et.nonaffine_displacements)[MODES.index(str(mode))]
+            out["nonaffine_displacement"] = np.nan_to_num(np.linalg.norm(u, axis=1) / float(et.length_scale), nan=0.0)
+        return out
+
     def to_dict(self) -> dict:
         """Plain data for JSON (per-particle and per-bond arrays left out)."""
         def opt(x):
