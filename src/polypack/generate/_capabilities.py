@@ -286,6 +286,7 @@ DEPOSIT_WORDS = {
     "chain_max": "longest free-surface chain (2D)", "alive": "live surface spheres at the end (3D)",
     "alive_max": "most live surface spheres (3D)", "overhang_placements": "overhang placements (3D)",
     "candidate_searches": "candidate searches (3D)", "improving_searches": "improving searches (3D)",
+    "rolled_placements": "spheres with no stable pocket, rolled from the lowest reachable point (3D surface rule)",
     "events": "contacts made or lost while rolling (3D roll)", "stuck": "spheres stopped by the event cap (3D roll)",
     "on_floor": "spheres on the floor (3D roll)", "neighbours_examined": "neighbour entries examined (3D roll)",
 }
