@@ -4,6 +4,7 @@ figures' data against the seed's formulas, bad input, and that nothing is recomp
 from __future__ import annotations
 
 import base64
+import io
 import json
 import math
 import re
@@ -227,3 +228,20 @@ def test_modulus_against_the_doh(tmp_path):
     fig = P.modulus_vs_doh_figure([("CRM", a, g)], y_label="G")
     (ln,) = fig.axes[0].get_lines()
     assert np.allclose(ln.get_xdata(), a) and np.allclose(ln.get_ydata(), g) and min(g) > 0
+
+
+def test_modulus_against_the_doh_with_floppy_structures():
+    """Floppy structures (G = 0) are counted in the legend, not drawn on the log axes; a set with
+    no rigid structure at all gives linear axes and a note instead of a crash (log axes need a
+    positive point)."""
+    from polypack.report import figures as P
+
+    fig = P.modulus_vs_doh_figure([("VEM", [0.4, 0.5, 0.6], [0.0, 2.0e6, 3.0e6])], y_label="G")
+    ax = fig.axes[0]
+    (ln,) = ax.get_lines()
+    assert list(ln.get_xdata()) == [0.5, 0.6] and ax.get_yscale() == "log"
+    assert "1 floppy" in ax.get_legend_handles_labels()[1][0]
+    fig = P.modulus_vs_doh_figure([("VEM", [0.4, 0.5], [0.0, 0.0])], y_label="G")
+    fig.savefig(io.BytesIO(), format="png")
+    assert fig.axes[0].get_yscale() == "linear"
+    assert any("no rigid structure" in t.get_text() for t in fig.axes[0].texts)

@@ -459,12 +459,20 @@ def modulus_vs_doh_figure(groups, *, y_label, title=""):
 
     with paper_style():
         fig, ax = plt.subplots(figsize=(4.6, 3.4))
+        shown = 0
         for i, (label, a, g) in enumerate(groups):
             a, g = np.asarray(a, dtype=np.float64), np.asarray(g, dtype=np.float64)
             ok = np.isfinite(a) & np.isfinite(g) & (g > 0)
-            ax.plot(a[ok], g[ok], "o", ms=3.5, mfc="none", color=f"C{i}", label=f"{label} ({int(ok.sum())} realizations)")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
+            floppy = int(np.sum(np.isfinite(g) & (g <= 0)))
+            words = f"{label} ({int(ok.sum())} realizations" + (f"; {floppy} floppy, G = 0, not drawn)" if floppy else ")")
+            ax.plot(a[ok], g[ok], "o", ms=3.5, mfc="none", color=f"C{i}", label=words)
+            shown += int(ok.sum())
+        if shown:  # log axes need a positive point (a set of floppy structures has none)
+            ax.set_xscale("log")
+            ax.set_yscale("log")
+        else:
+            ax.text(0.5, 0.5, "no rigid structure: every modulus is 0", transform=ax.transAxes,
+                    ha="center", va="center")
         ax.set_xlabel("degree of heterogeneity a (seed 003 eq. 6)")
         ax.set_ylabel(y_label)
         ax.legend(loc="best")
