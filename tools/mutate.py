@@ -414,7 +414,8 @@ MUTANTS += [
            T_VEM, "wrong condition"),
     # (kn = kn,V = 100 by default: a swap of the normal stiffnesses is an equivalent mutant)
     Mutant("g-vem-void-stiffness", G + "vem.py",
-           "self.cks = np.where(struct, self.ks, self.ksv)", "self.cks = np.where(struct, self.ksv, self.ks)",
+           "self.cks = np.where(struct, self.ks, np.where(voids, self.ksvv, self.ksv))",
+           "self.cks = np.where(struct, self.ksv, np.where(voids, self.ksvv, self.ks))",
            ("tests/test_vem.py::test_void_contacts_get_the_void_stiffnesses",) + T_VEM, "swapped stiffnesses"),
     Mutant("g-vem-coordination", G + "vem.py",
            "c = 2.0 * st[V.C_STRUCT_CONTACTS] / ns", "c = 2.0 * st[V.C_STRUCT_CONTACTS] / (ns + n_void)",
@@ -733,6 +734,7 @@ MUTANTS += [
 T_HOM = ("tests/test_homogenize.py",)
 T_VOX = ("tests/test_io_voxel.py",)
 T_HST = ("tests/test_stages_homogenize.py",)
+T_H32 = ("tests/test_stiffness_semantics.py",)
 F = "src/polypack/mechanics/fullfield.py"
 MUTANTS += [
     Mutant("h34-green-c0", F,
@@ -788,6 +790,25 @@ MUTANTS += [
     Mutant("h34-stage-ratio", M + "stages.py",
            "young_ratio=r.young / matrix.young", "young_ratio=r.young / matrix.shear",
            T_HST, "wrong reference (E*/E0 over the shear modulus)"),
+    # issue 32: stiffness semantics ("contact" | "particle": per-ball values in series per contact)
+    Mutant("h32-particle-scalar", M + "network.py", "        return 0.5 * k\n", "        return k\n",
+           T_H32, "dropped factor (a per-ball scalar used as the contact spring)"),
+    Mutant("h32-series-mean", M + "network.py",
+           "return k[:, None] * k[None, :] / (k[:, None] + k[None, :])",
+           "return 0.5 * (k[:, None] + k[None, :])",
+           T_H32, "wrong formula (arithmetic mean of the two balls instead of the series value)"),
+    Mutant("h32-stage-drop", M + "stages.py",
+           'stiffness=opts.get("stiffness", "contact"), **strengths)', 'stiffness="contact", **strengths)',
+           T_H32, "dropped option (the stages' stiffness never reaches the network)"),
+    Mutant("h32-vem-void-void", "src/polypack/generate/vem.py",
+           "np.where(voids, self.knvv, self.knv)", "np.where(voids, self.knv, self.knv)",
+           T_H32, "wrong pair (void-void contacts get the structure-void spring)"),
+    Mutant("h32-vem-option", "src/polypack/generate/vem.py",
+           '    if o["stiffness"] == "particle":\n', "    if False:\n",
+           T_H32, "dropped option (VEM ignores stiffness = \"particle\")"),
+    Mutant("h32-cli-elastic", "src/polypack/_cli/elastic_commands.py",
+           "shear_stiffness=ks, stiffness=stiffness)", "shear_stiffness=ks)",
+           T_H32, "dropped option (polypack elastic --stiffness ignored)"),
 ]
 
 def _kernel_digest(src: Path) -> str:

@@ -9,13 +9,15 @@ from typing import Optional
 import typer
 
 
-def elastic_report(pk, epsilon=0.01, kn=100.0, ks=10.0, radius=0.25e-6, rotations=True, solver="auto", net=None):
+def elastic_report(pk, epsilon=0.01, kn=100.0, ks=10.0, radius=0.25e-6, rotations=True, solver="auto", net=None,
+                   stiffness="contact"):
     """Network and tensor of ``pk`` as plain JSON-able data (moduli in Pa and MPa if ``radius``);
     ``net``: the network to use (default: the epsilon rule on ``pk``)."""
     from ..mechanics import BondNetwork, elastic_tensor
 
     if net is None:
-        net = BondNetwork.from_packing(pk, epsilon=epsilon, normal_stiffness=kn, shear_stiffness=ks)
+        net = BondNetwork.from_packing(pk, epsilon=epsilon, normal_stiffness=kn, shear_stiffness=ks,
+                                       stiffness=stiffness)
     et = elastic_tensor(net, rotations=rotations, radius=radius, solver=solver)
     st = net.statistics()
     st.pop("bond_angle_histogram")
@@ -25,6 +27,7 @@ def elastic_report(pk, epsilon=0.01, kn=100.0, ks=10.0, radius=0.25e-6, rotation
         "epsilon": epsilon,
         "normal_stiffness": kn,
         "shear_stiffness": ks,
+        "stiffness_semantics": net.stiffness,
         "radius_m": radius,
         "network": st,
         "elastic": et.to_dict(),
@@ -38,6 +41,8 @@ def register(app: typer.Typer) -> None:
         epsilon: float = typer.Option(0.01, help="Bond every pair closer than (1 + epsilon)(r_i + r_j)."),
         kn: float = typer.Option(100.0, "--kn", help="Normal stiffness per contact, N/m (seed 003: 100)."),
         ks: float = typer.Option(10.0, "--ks", help="Shear stiffness per contact, N/m (seed 003: kn/10)."),
+        stiffness: str = typer.Option("contact", "--stiffness", help="contact: --kn/--ks per contact; particle: "
+                                      "per ball, in series per contact (PFC 4, seed 003 Table 1: kn/2 for equal balls)."),
         radius: float = typer.Option(
             0.25e-6, help="Mean particle radius in metres the lengths are rescaled to (seed 003: 0.25 µm); "
             "0 keeps the file's length unit."),
@@ -60,9 +65,9 @@ def register(app: typer.Typer) -> None:
         r = check_radius(radius)
         pk, net, bonds_note, units_note = network_from_file(file, bonds=bonds, epsilon=epsilon, radius=radius,
                                                             fmt=fmt, rescale=False, normal_stiffness=kn,
-                                                            shear_stiffness=ks)
+                                                            shear_stiffness=ks, stiffness=stiffness)
         typer.echo(f"{file}: {units_note}; {bonds_note}")
-        res = elastic_report(pk, epsilon, kn, ks, r, rotations, solver, net=net)
+        res = elastic_report(pk, epsilon, kn, ks, r, rotations, solver, net=net, stiffness=stiffness)
         res = {"file": str(file), "bonds_source": bonds_note, "length_scale": units_note, **res}
         if json_out is not None:
             with atomic_open(json_out, "w") as fh:

@@ -17,6 +17,8 @@ def register(app: typer.Typer) -> None:
         epsilon: float = typer.Option(0.01, "--epsilon", help="Bond every pair closer than (1 + epsilon)(r_i + r_j)."),
         kn: float = typer.Option(100.0, "--kn", help="Normal stiffness per contact, N/m (seed 003: 100)."),
         ks: float = typer.Option(10.0, "--ks", help="Shear stiffness per contact, N/m (seed 003: kn/10)."),
+        stiffness: str = typer.Option("contact", "--stiffness", help="contact: --kn/--ks per contact; particle: "
+                                      "per ball, in series per contact (PFC 4, seed 003 Table 1: kn/2 for equal balls)."),
         bonds: str = typer.Option("auto", "--bonds", help="auto (bonds stored in the file or made by its protocol, "
                                   "else the epsilon rule), file (stored only) or distance (always epsilon)."),
         response: bool = typer.Option(False, "--response/--no-response", help="Add the exact elastic response "
@@ -34,7 +36,7 @@ def register(app: typer.Typer) -> None:
 
         check_new_output(target, file_kind(target), inputs=(source,), force=force, option="OUT")
         _, net, bonds_note, _ = network_from_file(source, bonds=bonds, epsilon=epsilon, radius=0.0,
-                                                  normal_stiffness=kn, shear_stiffness=ks)
+                                                  normal_stiffness=kn, shear_stiffness=ks, stiffness=stiffness)
         et = elastic_tensor(net) if response else None
         files = write_network(target, net, et, mode=mode)
         extra = ""

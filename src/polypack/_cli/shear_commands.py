@@ -32,6 +32,8 @@ def register(app: typer.Typer) -> None:
         epsilon: float = typer.Option(0.01, "--epsilon", help="Bond pairs closer than (1+epsilon)(r_i+r_j)."),
         normal_stiffness: float = typer.Option(100.0, "--kn", help="Normal contact stiffness (N/m)."),
         shear_stiffness: float = typer.Option(10.0, "--ks", help="Shear contact stiffness (N/m)."),
+        stiffness: str = typer.Option("contact", "--stiffness", help="contact: --kn/--ks per contact; particle: "
+                                      "per ball, in series per contact (PFC 4, seed 003 Table 1: kn/2 for equal balls)."),
         normal_strength: float = typer.Option(1e-4, "--normal-strength", help="Bond normal strength (N)."),
         shear_strength: float = typer.Option(1e-6, "--shear-strength", help="Bond shear strength (N)."),
         reference: str = typer.Option("stress-free", "--reference", help="stress-free or zero-gap."),
@@ -74,7 +76,7 @@ def register(app: typer.Typer) -> None:
         pk, net, bonds_note, units_note = network_from_file(
             source, bonds=bonds, epsilon=epsilon, radius=radius, normal_stiffness=normal_stiffness,
             shear_stiffness=shear_stiffness, normal_strength=normal_strength, shear_strength=shear_strength,
-            reference=reference)
+            reference=reference, stiffness=stiffness)
         typer.echo(f"{source}: {units_note}; {bonds_note}")
         interrupted = False
         try:

@@ -86,6 +86,11 @@ def _check_sweep(sw) -> dict:
     if not isinstance(el_in, dict) or set(el_in) - set(_ELASTIC_DEFAULTS):
         raise InvalidInputError(f"sweep.elastic = {el_in!r}: allowed keys {', '.join(_ELASTIC_DEFAULTS)}")
     for k, v in el_in.items():
+        if k == "stiffness":
+            if v not in ("contact", "particle"):
+                raise InvalidInputError(f'sweep.elastic.stiffness = {v!r}: allowed: "contact", "particle"')
+            el[k] = v
+            continue
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0:
             raise InvalidInputError(f"sweep.elastic.{k} = {v!r}: must be a number >= 0")
         el[k] = float(v)

@@ -177,6 +177,9 @@ class VEMOptions:
     structure_contacts: str = option("frictionless", v.choice("frictionless", "sticky"),
                                      "structure contacts during the expansion: repulsive only, or bonded at first "
                                      "touch", fill=False)
+    stiffness: str = option("contact", v.choice("contact", "particle"),
+                            "meaning of the four stiffnesses: per contact, or per particle combined in series per "
+                            "contact (k_a k_b / (k_a + k_b): PFC 4, seed 003 Table 1)", fill=False)
 
 
 def run_vem(sizes, pr: dict, seed, monitor=None):

@@ -178,7 +178,8 @@ def _structure_radii(n, radius):
 class _Assembly:
     """Structure + void spheres in reduced units (mean structure radius 1, kn = 1, mass 1)."""
 
-    def __init__(self, pos, radii, box, n_struct, kn, ks, knv, ksv, friction, damping, skin, sticky=False):
+    def __init__(self, pos, radii, box, n_struct, kn, ks, knv, ksv, friction, damping, skin, sticky=False,
+                 void_void=None):
         from .._kernels import dem as K
 
         self.K = K
@@ -187,7 +188,10 @@ class _Assembly:
         self.box = np.asarray(box, dtype=np.float64)
         self.h0 = np.diag(self.box)
         self.ns = int(n_struct)
+        # per-contact springs: structure-structure (kn, ks), structure-void (knv, ksv) and
+        # void-void (void_void, default the structure-void pair: the per-contact semantics)
         self.kn, self.ks, self.knv, self.ksv = kn, ks, knv, ksv
+        self.knvv, self.ksvv = (knv, ksv) if void_void is None else void_void
         n = self.pos.shape[0]
         self.n_key = np.int64(n)  # fixed for the keys (the voids are dropped at the end)
         self.sticky = bool(sticky)
@@ -199,7 +203,7 @@ class _Assembly:
         self.kind = np.zeros(n, np.int64)
         self.st = np.zeros(K.N_ST)
         self.skin = skin
-        kmax = max(kn, knv, ks, ksv)
+        kmax = max(kn, knv, ks, ksv, self.knvv, self.ksvv)
         self.dt = 0.2 / math.sqrt(kmax)
         p = np.zeros(K.N_P)
         p[K.P_DT] = self.dt
@@ -261,8 +265,9 @@ class _Assembly:
         self.ci = i.astype(np.int64)
         self.cj = j.astype(np.int64)
         self.cshift = np.ascontiguousarray(shift, dtype=np.float64)
-        self.ckn = np.where(struct, self.kn, self.knv)
-        self.cks = np.where(struct, self.ks, self.ksv)
+        voids = (i >= self.ns) & (j >= self.ns)
+        self.ckn = np.where(struct, self.kn, np.where(voids, self.knvv, self.knv))
+        self.cks = np.where(struct, self.ks, np.where(voids, self.ksvv, self.ksv))
         self.crest = radii[i] + radii[j]
         self.cfnb = np.full(m, np.inf)
         self.cfsb = np.full(m, np.inf)
@@ -434,6 +439,7 @@ def vem(
     max_stages=VEM_DEFAULTS["max_stages"],
     final_relaxation=VEM_DEFAULTS["final_relaxation"],
     structure_contacts=VEM_DEFAULTS["structure_contacts"],
+    stiffness=VEM_DEFAULTS["stiffness"],
     progress=None,
 ) -> Packing:
     """Heterogeneous pack by the void expansion method (VEM).
@@ -492,6 +498,12 @@ def vem(
         about the touching distance, unbreakable, carrying tension and shear), a model of
         coagulating particles.  ``docs/vem.md`` compares both with Table 2 of the seed
         (sticky contacts lower both ``a`` and C).
+    stiffness : {"contact", "particle"}
+        Meaning of the four stiffnesses: ``"contact"`` (default) the springs of the
+        contacts as described above; ``"particle"`` per-ball values combined in series
+        per contact, ``k = k_1 k_2 / (k_1 + k_2)`` (the PFC 4 linear model of the seed,
+        Table 1 of 003_873b69fc71c74cf6.txt): structure-structure ``kn / 2``,
+        structure-void ``kn kn,V / (kn + kn,V)``, void-void ``kn,V / 2`` (shear alike).
     progress : bool, optional
         Progress bar (void diameter, coordination, unbalanced-force ratio); default when
         stderr is a terminal.
@@ -531,7 +543,7 @@ def vem(
         void_normal_stiffness=void_normal_stiffness, void_shear_stiffness=void_shear_stiffness, friction=friction,
         damping=damping, ratio_tolerance=ratio_tolerance, jam_overlap=jam_overlap, check_every=check_every,
         stage_steps=stage_steps, max_stages=max_stages, final_relaxation=final_relaxation,
-        structure_contacts=structure_contacts))
+        structure_contacts=structure_contacts, stiffness=stiffness))
     phi, vr = o["volume_fraction"], o["void_ratio"]
     n_void = int(round(vr * ns))
     if n_void < 1:
@@ -558,8 +570,16 @@ def vem(
     pos_v = _initial_voids(n_void, pos_s, red, box, rv0, rng)
     pos = np.concatenate([pos_s, pos_v])
     allr = np.concatenate([red, np.full(n_void, rv0)])
-    asm = _Assembly(pos, allr, box, ns, 1.0, ks / kn, knv / kn, ksv / kn, mu, alpha, skin,
-                    sticky=structure_contacts == "sticky")
+    if o["stiffness"] == "particle":
+        # per-ball values in series per contact (PFC 4); reduced units: the structure contact is 1
+        ser = lambda a, b: a * b / (a + b) if a + b > 0 else 0.0  # noqa: E731
+        kss = ser(kn, kn)
+        asm = _Assembly(pos, allr, box, ns, 1.0, ser(ks, ks) / kss, ser(kn, knv) / kss, ser(ks, ksv) / kss, mu,
+                        alpha, skin, sticky=structure_contacts == "sticky",
+                        void_void=(ser(knv, knv) / kss, ser(ksv, ksv) / kss))
+    else:
+        asm = _Assembly(pos, allr, box, ns, 1.0, ks / kn, knv / kn, ksv / kn, mu, alpha, skin,
+                        sticky=structure_contacts == "sticky")
     vol = float(np.prod(box))
     vs = float(np.sum(4.0 / 3.0 * np.pi * red**3))
     series = {k: [] for k in ("stage", "void_diameter", "total_fraction", "coordination", "bonds", "void_contacts",

@@ -22,8 +22,12 @@ def _bond_fields():
                      "bonds: the protocol's (BD) if the pack has them, else the epsilon rule ('auto'); "
                      "'distance' always the epsilon rule; 'protocol' only the protocol's"),
         epsilon=option(0.01, v.non_negative, "bond pairs closer than (1 + epsilon)(r_i + r_j) (seed 003: 0.01)"),
-        normal_stiffness=option(100.0, v.positive, "k_n per contact (seed 003 Table 1: 100 N/m)", unit="N/m"),
+        normal_stiffness=option(100.0, v.positive, "k_n per contact, or per particle with stiffness = \"particle\" "
+                                "(seed 003 Table 1: 100 N/m)", unit="N/m"),
         shear_stiffness=option(None, v.positive, "k_s per contact (default k_n / 10, seed 003 Table 1)", unit="N/m"),
+        stiffness=option("contact", v.choice("contact", "particle"),
+                         "meaning of normal_stiffness/shear_stiffness: per contact, or per particle combined in "
+                         "series per contact (k_a k_b / (k_a + k_b): PFC 4, seed 003 Table 1)", fill=False),
     )
 
 
@@ -36,6 +40,7 @@ class ElasticOptions:
     epsilon: float = _B["epsilon"]
     normal_stiffness: float = _B["normal_stiffness"]
     shear_stiffness: float = _B["shear_stiffness"]
+    stiffness: str = _B["stiffness"]
     rotations: bool = option(True, v.boolean, "particles rotate (False: translations only)")
     radius: float = option(0.25e-6, v.non_negative,
                            "mean radius the lengths are rescaled to, m (moduli in Pa; seed 003: 0.25 µm); "
@@ -95,6 +100,7 @@ class ShearOptions:
     epsilon: float = _B["epsilon"]
     normal_stiffness: float = _B["normal_stiffness"]
     shear_stiffness: float = _B["shear_stiffness"]
+    stiffness: str = _B["stiffness"]
     normal_strength: float = option(None, v.positive, "bond normal strength F_nB (1e-4 N, seed 003 Table 1)", unit="N")
     shear_strength: float = option(None, v.positive, "bond shear strength F_sB (1e-6 N)", unit="N")
     reference: str = option(None, v.choice("stress-free", "zero-gap"), "bond rest length: current ('stress-free') "
@@ -249,6 +255,7 @@ class RigidityOptions:
     epsilon: float = _B["epsilon"]
     normal_stiffness: float = _B["normal_stiffness"]
     shear_stiffness: float = _B["shear_stiffness"]
+    stiffness: str = _B["stiffness"]
     rotations: bool = option(True, v.boolean, "particles rotate (False: translations only; Z_c = 2 instead of 4)")
     radius: float = option(0.25e-6, v.non_negative,
                            "mean radius the lengths are rescaled to, m (as [analysis.elastic]; 0 keeps the pack's unit)",

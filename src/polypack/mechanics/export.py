@@ -13,7 +13,9 @@ LAMMPS ``bond_style bpm/rotational`` versus polypack's PFC contact bonds
 Coefficients per bond type: ``Kr Ks Kt Kb Fcr Fcs Tct Tcb gn gs gr gt`` (LAMMPS source
 ``bond_bpm_rotational.cpp``; the manual lists the two critical torques in the other
 order, which does not matter here since both are set equal). The mapping is
-``Kr = k_n``, ``Ks = k_s`` (force per length, ``normalize no``), ``Kt = Kb = 0`` (a
+``Kr = k_n``, ``Ks = k_s`` (force per length, ``normalize no``; the network's
+*per-contact* values, so a network built with ``stiffness="particle"`` writes the series
+combination, ``k/2`` for equal balls, never the per-ball input), ``Kt = Kb = 0`` (a
 contact bond has no moment resistance), ``Fcr`` = normal (tensile) strength, ``Fcs`` =
 shear strength, ``Tct = Tcb = 1`` (any positive value: the torques are zero, the
 criterion divides by them), damping ``gn gs`` as chosen, ``gr = gt = 0``, and

@@ -16,9 +16,48 @@ import numpy as np
 
 from ..errors import InfeasibleError, InvalidInputError
 
-__all__ = ["BondNetwork", "series_stiffness"]
+__all__ = ["BondNetwork", "series_stiffness", "STIFFNESS_SEMANTICS"]
 
 _REFERENCES = ("stress-free", "zero-gap")
+#: Meaning of given normal/shear stiffnesses: ``"contact"`` (per contact, PFC 5 and
+#: polypack's default) or ``"particle"`` (per ball, combined in series per contact: the
+#: PFC 4 linear model and Table 1 of 003_873b69fc71c74cf6.txt).
+STIFFNESS_SEMANTICS = ("contact", "particle")
+
+
+def check_stiffness_semantics(stiffness):
+    """Return ``stiffness`` if it is one of :data:`STIFFNESS_SEMANTICS`, else raise (one line)."""
+    if not isinstance(stiffness, str) or stiffness not in STIFFNESS_SEMANTICS:
+        raise InvalidInputError(f"stiffness={stiffness!r}: allowed are {list(STIFFNESS_SEMANTICS)} "
+                                "(per contact, or per particle combined in series)")
+    return stiffness
+
+
+def _particle_to_contact(value, name):
+    """Per-contact form of per-particle stiffnesses: a scalar ``k`` -> ``k/2``; a (K,) per-species
+    list or a ``{species: k}`` mapping -> the (K, K) series matrix of :func:`series_stiffness`."""
+    if isinstance(value, Mapping):
+        try:
+            keys = sorted(int(key) for key in value)
+        except (TypeError, ValueError):
+            raise InvalidInputError(f'{name} with stiffness="particle": a mapping must be {{species: k}}, '
+                                    f"got keys {list(value)}") from None
+        if keys != list(range(len(keys))):
+            raise InvalidInputError(f'{name} with stiffness="particle": species {keys} must be 0 ... K-1')
+        value = [value[k] if k in value else value[str(k)] for k in keys]
+    arr = np.asarray(value, dtype=np.float64)
+    if arr.ndim == 0:
+        k = float(arr)
+        if not (np.isfinite(k) and k > 0):
+            raise InvalidInputError(f'{name}={k!r} with stiffness="particle": must be finite and > 0')
+        return 0.5 * k
+    if arr.ndim != 1:
+        raise InvalidInputError(f'{name} of shape {arr.shape} with stiffness="particle": allowed are a scalar, '
+                                "a per-species list or a {species: k} mapping (per-ball values)")
+    try:
+        return series_stiffness(arr)
+    except InvalidInputError as exc:
+        raise InvalidInputError(f"{name}: {exc}") from None
 
 
 def series_stiffness(per_particle):
@@ -26,8 +65,9 @@ def series_stiffness(per_particle):
 
     PFC 4 and earlier give each ball a stiffness and combine the two balls of a
     contact in series, ``k = k_A k_B / (k_A + k_B)`` (``k/2`` for equal balls); PFC 5
-    and polypack set stiffnesses per contact. Pass the result as
-    ``normal_stiffness=`` or ``shear_stiffness=`` to reproduce a PFC 4 input.
+    and polypack's default set stiffnesses per contact. ``BondNetwork.from_packing(...,
+    stiffness="particle")`` applies this to its per-ball input; the result can also be
+    passed as ``normal_stiffness=`` or ``shear_stiffness=`` of a per-contact network.
 
     Parameters
     ----------
@@ -142,9 +182,12 @@ class BondNetwork:
         or ``r_i + r_j`` (``"zero-gap"``, PFC: a bond made across a gap ``g`` starts
         under tension ``k_n g``).
     normal_stiffness, shear_stiffness : (M,) float64
-        Stiffness of each contact in force per length (N/m for SI input). These are
-        **per contact** (PFC 5 convention); PFC 4 combines per-ball stiffnesses in
-        series, a factor 2 for equal balls (see :func:`series_stiffness`).
+        Stiffness of each contact in force per length (N/m for SI input), always the
+        per-contact value the mechanics use. Given ``stiffness="particle"`` the input
+        values are per ball and combined in series here (PFC 4, seed 003 Table 1; a
+        factor 1/2 for equal balls, :func:`series_stiffness`).
+    stiffness : str
+        ``"contact"`` or ``"particle"``: how the input stiffnesses were read.
     normal_strength, shear_strength : (M,) float64
         Bond strengths in force units (N for SI input); ``np.inf`` = unbreakable.
     reference : str
@@ -169,11 +212,16 @@ class BondNetwork:
 
     __slots__ = (
         "_packing", "_i", "_j", "_shift", "_branch", "_length", "_normal", "_rest",
-        "_kn", "_ks", "_fn", "_fs", "_reference", "_epsilon", "_cache",
+        "_kn", "_ks", "_fn", "_fs", "_reference", "_epsilon", "_cache", "_semantics",
     )
 
     def __init__(self, packing, i, j, shift, *, normal_stiffness, shear_stiffness,
-                 normal_strength, shear_strength, reference, epsilon=None, per_bond_ok=True):
+                 normal_strength, shear_strength, reference, epsilon=None, per_bond_ok=True,
+                 stiffness="contact"):
+        check_stiffness_semantics(stiffness)
+        if stiffness == "particle":
+            normal_stiffness = _particle_to_contact(normal_stiffness, "normal_stiffness")
+            shear_stiffness = _particle_to_contact(shear_stiffness, "shear_stiffness")
         if reference not in _REFERENCES:
             raise InvalidInputError(f"reference={reference!r}: allowed are {list(_REFERENCES)}")
         pos, box, dim, periodic = _geometry(packing)
@@ -206,13 +254,14 @@ class BondNetwork:
         self._branch, self._length, self._normal, self._rest = branch, length, normal, rest
         self._reference = reference
         self._epsilon = epsilon
+        self._semantics = stiffness
         self._cache = {}
         del n
 
     # ------------------------------------------------------------ constructors
     @classmethod
     def from_packing(cls, packing, epsilon=0.01, normal_stiffness=100.0, shear_stiffness=10.0,
-                     normal_strength=1e-4, shear_strength=1e-6, reference="stress-free"):
+                     normal_strength=1e-4, shear_strength=1e-6, reference="stress-free", stiffness="contact"):
         """Bond every pair whose centres are closer than ``(1 + epsilon)(r_i + r_j)``.
 
         For equal spheres this is the bonding distance ``d_eps = (1 + eps) 2 r0`` of
@@ -224,10 +273,18 @@ class BondNetwork:
         packing : Packing
         epsilon : float, default 0.01
             Relative bonding gap, >= 0.
-        normal_stiffness, shear_stiffness : float, mapping or (K, K) array, default 100, 10
-            Per-contact stiffnesses (N/m for SI input; seed 003 Table 1: kn = 100 N/m,
-            kn/ks = 10). A mapping ``{(a, b): k}`` or a symmetric species matrix sets
-            them per species pair.
+        normal_stiffness, shear_stiffness : float, mapping or array, default 100, 10
+            Stiffnesses (N/m for SI input; seed 003 Table 1: kn = 100 N/m, kn/ks = 10),
+            read as ``stiffness`` says. Per contact: a scalar, a mapping ``{(a, b): k}``
+            or a symmetric (K, K) species matrix. Per particle: a scalar, a (K,)
+            per-species list or a mapping ``{a: k}``.
+        stiffness : {"contact", "particle"}, default "contact"
+            ``"contact"``: the values are the springs of each contact (PFC 5,
+            polypack's default). ``"particle"``: they are per-ball stiffnesses combined
+            in series per contact, ``k_ab = k_a k_b / (k_a + k_b)`` (``k/2`` for equal
+            balls): the PFC 4 linear model, the semantics of Table 1 of
+            003_873b69fc71c74cf6.txt ("normal particle stiffness"), so kn = 100 N/m
+            there gives 50 N/m contacts. Strengths are always per contact.
         normal_strength, shear_strength : float, mapping or (K, K) array, default 1e-4, 1e-6
             Bond strengths (N; seed 003 Table 1); ``np.inf`` = unbreakable.
         reference : {"stress-free", "zero-gap"}
@@ -268,11 +325,11 @@ class BondNetwork:
         return cls(packing, lo, hi, shift, normal_stiffness=normal_stiffness,
                    shear_stiffness=shear_stiffness, normal_strength=normal_strength,
                    shear_strength=shear_strength, reference=reference, epsilon=eps,
-                   per_bond_ok=False)
+                   per_bond_ok=False, stiffness=stiffness)
 
     @classmethod
     def from_pairs(cls, packing, i, j, shift=None, normal_stiffness=100.0, shear_stiffness=10.0,
-                   normal_strength=1e-4, shear_strength=1e-6, reference="stress-free"):
+                   normal_strength=1e-4, shear_strength=1e-6, reference="stress-free", stiffness="contact"):
         """A network with the given bonds (kept in the given order and orientation).
 
         Parameters
@@ -284,8 +341,10 @@ class BondNetwork:
             Periodic image of ``j`` seen from ``i`` (branch ``x[j] + shift * box - x[i]``);
             default the minimum image on periodic axes.
         normal_stiffness, shear_stiffness, normal_strength, shear_strength
-            As in :meth:`from_packing`, or an (M,) array with one value per bond.
+            As in :meth:`from_packing`, or (per contact) an (M,) array with one value per bond.
         reference : {"stress-free", "zero-gap"}
+        stiffness : {"contact", "particle"}, default "contact"
+            As in :meth:`from_packing`.
 
         Raises
         ------
@@ -338,7 +397,7 @@ class BondNetwork:
         return cls(packing, i, j, sh, normal_stiffness=normal_stiffness,
                    shear_stiffness=shear_stiffness, normal_strength=normal_strength,
                    shear_strength=shear_strength, reference=reference, epsilon=None,
-                   per_bond_ok=True)
+                   per_bond_ok=True, stiffness=stiffness)
 
     def select(self, keep):
         """A new network with only the bonds ``keep`` (bool mask or indices), e.g. after breakage."""
@@ -346,7 +405,12 @@ class BondNetwork:
         return BondNetwork(self._packing, self._i[idx], self._j[idx], self._shift[idx],
                            normal_stiffness=self._kn[idx], shear_stiffness=self._ks[idx],
                            normal_strength=self._fn[idx], shear_strength=self._fs[idx],
-                           reference=self._reference, epsilon=self._epsilon, per_bond_ok=True)
+                           reference=self._reference, epsilon=self._epsilon, per_bond_ok=True,
+                           stiffness="contact")._with_semantics(self._semantics)
+
+    def _with_semantics(self, stiffness):
+        self._semantics = stiffness
+        return self
 
     # -------------------------------------------------------------------- data
     packing = property(lambda self: self._packing, doc="The Packing (never modified).")
@@ -363,6 +427,9 @@ class BondNetwork:
     shear_strength = property(lambda self: self._fs, doc="(M,) shear bond strength (inf = unbreakable).")
     reference = property(lambda self: self._reference, doc='"stress-free" or "zero-gap".')
     epsilon = property(lambda self: self._epsilon, doc="Relative bonding gap (None for from_pairs).")
+    stiffness = property(lambda self: self._semantics,
+                         doc='How the given stiffnesses were read: "contact" or "particle" (series per contact); '
+                             "normal_stiffness / shear_stiffness hold the per-contact values either way.")
 
     @property
     def dim(self) -> int:
@@ -540,4 +607,4 @@ class BondNetwork:
 
     def __repr__(self) -> str:
         return (f"BondNetwork(n={self.n}, bonds={self.n_bonds}, Z={self.coordination:.3f}, "
-                f"reference={self._reference!r})")
+                f"reference={self._reference!r}, stiffness={self._semantics!r})")

@@ -46,15 +46,17 @@ def _stiffnesses(opts):
 def network_of(packing, opts, path="analysis.elastic", **strengths):
     """The stress-free :class:`~polypack.mechanics.BondNetwork` of a realized pack; ``(network, rule)``.
 
-    ``opts`` holds ``bonds`` (:data:`BOND_RULES`), ``epsilon``, ``normal_stiffness`` and
-    ``shear_stiffness`` (default ``normal_stiffness / 10``); ``strengths`` go to the
-    network (``normal_strength``, ``shear_strength``).
+    ``opts`` holds ``bonds`` (:data:`BOND_RULES`), ``epsilon``, ``normal_stiffness``,
+    ``shear_stiffness`` (default ``normal_stiffness / 10``) and ``stiffness`` (``"contact"``,
+    the default, or ``"particle"``: per-ball values combined in series, the semantics of
+    Table 1 of 003_873b69fc71c74cf6.txt); ``strengths`` go to the network
+    (``normal_strength``, ``shear_strength``).
     """
     from .network import BondNetwork
 
     rule = opts.get("bonds", "auto")
     kn, ks = _stiffnesses(opts)
-    kw = dict(normal_stiffness=kn, shear_stiffness=ks, **strengths)
+    kw = dict(normal_stiffness=kn, shear_stiffness=ks, stiffness=opts.get("stiffness", "contact"), **strengths)
     has = isinstance(packing.meta.get("bonds"), dict)
     if rule == "protocol" and not has:
         raise InvalidInputError(
@@ -154,7 +156,8 @@ def run_elastic(packing, opts, seed):
     kn, ks = _stiffnesses(opts)
     out = {"estimator": "ElasticTensor", "bonds": rule,
            "epsilon": float(opts.get("epsilon", 0.01)) if rule == "distance" else None,
-           "normal_stiffness": kn, "shear_stiffness": ks,
+           "normal_stiffness": kn, "shear_stiffness": ks, "stiffness_semantics": net.stiffness,
+           "contact_normal_stiffness": float(np.mean(net.normal_stiffness)),
            "radius_m": radius if radius > 0 else None}
     out.update(et.to_dict())
     out["floppy"] = int(not et.rigid)  # summary flag: its mean is the fraction of floppy structures
@@ -170,7 +173,8 @@ _LAST = {}
 
 def _tensor_key(opts):
     kn, ks = _stiffnesses(opts)
-    return (opts.get("bonds", "auto"), float(opts.get("epsilon", 0.01)), kn, ks, bool(opts.get("rotations", True)),
+    return (opts.get("bonds", "auto"), float(opts.get("epsilon", 0.01)), kn, ks, opts.get("stiffness", "contact"),
+            bool(opts.get("rotations", True)),
             float(opts.get("radius", 0.25e-6)), opts.get("solver", "auto"))
 
 
@@ -277,7 +281,8 @@ def run_shear(packing, opts, seed):
     d = opts.get("directions", 6)
     kw["directions"] = d if d == 6 else [tuple(p) for p in d]
     res = _prefixed(path, oscillatory_shear, net, progress=False, **kw)
-    out = {"estimator": "ShearResult", "bonds": rule, "n_bonds": net.n_bonds, "coordination": net.coordination,
+    out = {"estimator": "ShearResult", "bonds": rule, "stiffness_semantics": net.stiffness, "n_bonds": net.n_bonds,
+           "coordination": net.coordination,
            "radius_m": radius if radius else None}
     out.update(res.to_dict(series=False))
     out["direction"] = {f"{r['normal']}-{r['shear']}": {k: r[k] for k in ("storage_modulus", "loss_modulus",

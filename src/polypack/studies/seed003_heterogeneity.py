@@ -50,7 +50,8 @@ SEED_TABLE2 = {
 }
 
 #: ``[sweep.elastic]`` defaults of the report's own static tensor (Table 1 of the seed).
-ELASTIC_DEFAULTS = {"epsilon": 0.01, "normal_stiffness": 100.0, "shear_stiffness": 10.0}
+#: ``stiffness``: "contact" (per contact, polypack's default) or "particle" (per ball, in series).
+ELASTIC_DEFAULTS = {"epsilon": 0.01, "normal_stiffness": 100.0, "shear_stiffness": 10.0, "stiffness": "contact"}
 
 
 def _records(folder: Path):
@@ -81,6 +82,18 @@ def _stated_rigid(rec, modulus):
         return None if st is None else st != "floppy"
     r = (ana.get("elastic") or {}).get("rigid")
     return None if r is None else bool(r)
+
+
+def _semantics(rec, src, elastic):
+    """How the stiffnesses of this structure's G'p were read: "contact" or "particle"."""
+    if src.startswith("report"):
+        return elastic.get("stiffness", "contact")
+    ana = rec.get("analysis", {})
+    for key in ("shear", "elastic"):
+        st = (ana.get(key) or {}).get("stiffness_semantics") if isinstance(ana.get(key), dict) else None
+        if st is not None and key in src:
+            return st
+    return "contact"
 
 
 def _structure_values(rec, gsd, elastic, modulus="elastic"):
@@ -125,7 +138,8 @@ def _structure_values(rec, gsd, elastic, modulus="elastic"):
 
         pk = io.read(str(gsd))
         net = BondNetwork.from_packing(pk, epsilon=elastic["epsilon"], normal_stiffness=elastic["normal_stiffness"],
-                                       shear_stiffness=elastic["shear_stiffness"])
+                                       shear_stiffness=elastic["shear_stiffness"],
+                                       stiffness=elastic.get("stiffness", "contact"))
         et = elastic_tensor(net)
         g3 = np.asarray(et.shear_moduli, dtype=np.float64)
         g_aff = float(et.affine_shear_modulus)
@@ -226,6 +240,7 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
     make_folder(rep)
     rows, points = [], []
     sources = set()
+    semantics = set()
     unconverged = []
     groups = [(Path(f), *set_label(f, parameter, v)) for v, f in sets] + [(Path(f), *set_label(f)) for f in include]
     for folder, label, kind, vkey, v in groups:
@@ -233,6 +248,7 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
         for rec, gsd in _records(folder):
             a, b, c, g, gsd_sd, src, g_aff = _structure_values(rec, gsd, elastic, modulus)
             sources.add(src)
+            semantics.add(_semantics(rec, src, elastic))
             if not math.isfinite(g):  # a dynamic test that did not converge: no modulus
                 unconverged.append(f"{label} r{rec['index']:04d}")
                 continue
@@ -298,7 +314,9 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
                      f"{r['C']:.2f} | {_g_cell(r)} | {sa} |")
     lines.append("")
     lines.append(f"G'p source: {', '.join(sorted(sources))}; bonds at epsilon = {elastic['epsilon']:g}, "
-                 f"kn = {elastic['normal_stiffness']:g} N/m, ks = {elastic['shear_stiffness']:g} N/m.")
+                 f"kn = {elastic['normal_stiffness']:g} N/m, ks = {elastic['shear_stiffness']:g} N/m; "
+                 f"stiffnesses per {' and per '.join(sorted(semantics))} (particle: per ball, in series per "
+                 "contact, k/2 for equal balls; Table 1 of 003_873b69fc71c74cf6.txt).")
     if fit is not None:
         lines.append(f"Eq. (7) of 003_873b69fc71c74cf6.txt: a0 = {fit.a0:.4f} ± {fit.a0_err:.4f}, "
                      f"beta = {fit.beta:.3f} ± {fit.beta_err:.3f}, A = {fit.prefactor:.3g} ± "
