@@ -31,8 +31,8 @@ LAYERS = [
     ("generate",),
     ("analysis", "mechanics"),
     ("study",),
-    ("ensemble",),
-    ("cli", "_cli", "report", "__main__", "_entry"),
+    ("ensemble", "studies"),  # studies: seed-specific drivers of the engine (ensemble.sweep runs them)
+    ("cli", "_cli", "report", "__main__", "_entry", "_reference"),  # _reference: the generated docs page reads every declaration
 ]
 RANK = {name: k for k, names in enumerate(LAYERS) for name in names}
 # siblings that must stay independent of each other

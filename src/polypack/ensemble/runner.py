@@ -634,7 +634,7 @@ def aggregate(out, study: Study, records) -> dict:
     if study.data["output"]["plots"]:
         fmt = study.data["output"]["plot_format"]
         files["plots"] = ens / f"*.{fmt}"
-        from ..report.figures import plot_curves, plot_grading  # the figures live with the report
+        from ._plots import plot_curves, plot_grading
 
         plot_curves(curves, ens, fmt, title=study.name)
         if complete:
