@@ -233,3 +233,40 @@ def test_sweep_elastic_stiffness_is_checked():
     d["sweep"]["elastic"] = {"stiffness": "ball"}
     with pytest.raises(InvalidInputError, match=r"^sweep.elastic.stiffness = 'ball': allowed: \"contact\", \"particle\"$"):
         sweep_studies(d)
+
+
+def test_dem_storage_modulus_halves_exactly_for_equal_balls():
+    """The DEM scales its masses to the stiffness (critical step), so the whole oscillatory run
+    under "particle" is the "contact" run with k/2 and m/2: G' is exactly half (measured 0.5 - 2e-13)."""
+    from polypack.mechanics import oscillatory_shear
+
+    pk = fcc(cells=3, d=0.5e-6)
+    res = {st: oscillatory_shear(BondNetwork.from_packing(pk, stiffness=st), cycles=3, steps_per_cycle=400,
+                                 directions=[(2, 0)], progress=False) for st in ("contact", "particle")}
+    assert res["contact"].status == res["particle"].status == "ok"
+    assert res["particle"].storage_modulus == pytest.approx(0.5 * res["contact"].storage_modulus, rel=1e-9)
+    # and it is the static closed form C55 = (kn + ks)/(sqrt2 d) of 50/5 N/m contacts (d = 0.5 um) within 1 %
+    assert res["particle"].storage_modulus == pytest.approx(55.0 / (S2 * 0.5e-6), rel=0.01)
+
+
+def test_cli_export_network_writes_the_per_contact_lammps_coefficients(tmp_path):
+    from polypack.cli import main
+
+    src = tmp_path / "fcc.gsd"
+    pp.io.write(src, fcc(cells=3, d=1.0))
+    for st, want in (("contact", 100.0), ("particle", 50.0)):
+        out = tmp_path / f"{st}.data"
+        main(["export-network", str(src), str(out), "--stiffness", st])
+        coeffs = [line.split() for line in out.read_text().splitlines() if line.lstrip("# ").startswith("bond_coeff")]
+        assert coeffs and all(float(c[-12]) == want and float(c[-11]) == want / 10 for c in coeffs)
+        assert np.all(read_network(out).normal_stiffness == want)
+
+
+def test_heterogeneity_report_names_the_semantics_of_each_source():
+    from polypack.studies.seed003_heterogeneity import _semantics
+
+    rec = {"analysis": {"elastic": {"stiffness_semantics": "particle"}, "shear": {"stiffness_semantics": "contact"}}}
+    assert _semantics(rec, "[analysis.elastic]", {}) == "particle"
+    assert _semantics(rec, "[analysis.shear] (dynamic G')", {}) == "contact"
+    assert _semantics({"analysis": {"elastic": {}}}, "[analysis.elastic]", {}) == "contact"  # older records
+    assert _semantics(rec, "report (pp.mechanics.elastic_tensor)", {"stiffness": "particle"}) == "particle"

@@ -809,6 +809,12 @@ MUTANTS += [
     Mutant("h32-cli-elastic", "src/polypack/_cli/elastic_commands.py",
            "shear_stiffness=ks, stiffness=stiffness)", "shear_stiffness=ks)",
            T_H32, "dropped option (polypack elastic --stiffness ignored)"),
+    Mutant("h32-cli-export", "src/polypack/_cli/network_commands.py",
+           "shear_stiffness=ks, stiffness=stiffness)", "shear_stiffness=ks)",
+           T_H32, "dropped option (polypack export-network --stiffness ignored: per-ball values exported)"),
+    Mutant("h32-report-semantics", "src/polypack/studies/seed003_heterogeneity.py",
+           '        return elastic.get("stiffness", "contact")\n', '        return "contact"\n',
+           T_H32, "wrong record (the report's own tensor always said per contact)"),
 ]
 
 def _kernel_digest(src: Path) -> str:
