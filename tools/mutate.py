@@ -181,6 +181,10 @@ MUTANTS = [
            "        dz = min_image(x[j, 2] - x[i, 2], box[2])\n",
            "        dz = min_image(x[j, 2] - x[i, 2], box[0])\n",
            (T_NC, "tests/test_pack.py"), "swapped box length"),
+    Mutant("h33-pair-bound", K + "edmd.py",
+           "        if A >= 0.0 and C >= best * (-2.0 * B) * (1.0 + 1e-9):\n",
+           "        if A >= 0.0 and C >= best * (-1.0 * B) * (1.0 + 1e-9):\n",
+           ("tests/test_edmd_hot.py",), "lower bound of the pair time too high (skips real collisions)"),
     # --------------------------------------------------------------- analyses
     Mutant("a-k-err-sqrt2", A + "kfunction.py",
            "return np.sqrt(2.0 * tot) / dens_t", "return np.sqrt(tot) / dens_t",

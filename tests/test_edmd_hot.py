@@ -1,0 +1,44 @@
+"""The hot path of the 3D event-driven packer (issue 33): the pruned pair time gives the same
+next event as the plain one (the split event loop is covered bit for bit by tests/test_golden.py
+and its synchronisation returns by test_pack_options_change_speed_not_physics)."""
+
+import numpy as np
+from numba import njit
+
+from polypack._kernels import edmd
+
+
+@njit(cache=False)
+def _both(a, best):
+    out = np.empty((a.shape[0], 2))
+    for k in range(a.shape[0]):
+        r = a[k]
+        out[k, 0] = edmd.pair_time(r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7])
+        out[k, 1] = edmd.pair_time_below(r[0], r[1], r[2], r[3], r[4], r[5], r[6], r[7], best[k])
+    return out
+
+
+def test_pair_time_below_is_pair_time_where_it_is_below_best():
+    rng = np.random.default_rng(7)
+    m = 20000
+    a = np.empty((m, 8))
+    u = rng.normal(size=(m, 3))
+    a[:, :3] = u / np.linalg.norm(u, axis=1)[:, None] * rng.uniform(2.05, 6.0, m)[:, None]  # separation, no overlap
+    # relative velocity: mostly towards each other, so that many pairs meet
+    a[:, 3:6] = -a[:, :3] / 3.0 * rng.uniform(0.0, 2.0, m)[:, None] + 0.7 * rng.normal(size=(m, 3))
+    a[:, 6] = rng.uniform(0.0, 0.1, m)  # growth speed of the contact distance
+    a[:, 7] = rng.uniform(0.5, 2.0, m)  # contact distance now
+    exact = _both(a, np.full(m, np.inf))[:, 0]
+    finite = np.isfinite(exact) & (exact > 0)
+    assert finite.sum() > 2000  # the test reaches the square-root branch often
+    # best just above, at and just below the true time, and random ones
+    shortcut = 0
+    for best in (exact * (1 + 1e-12), exact, exact * (1 - 1e-12), rng.uniform(0, 5, m)):
+        best = np.where(np.isfinite(best), best, 1.0)
+        got = _both(a, best)
+        below = got[:, 0] < best
+        assert np.array_equal(got[below, 1], got[below, 0])  # bit for bit where it counts
+        assert np.all(got[~below, 1] >= best[~below])  # never a false smaller time
+        shortcut += (got[:, 1] == np.inf).sum() - (got[:, 0] == np.inf).sum()
+    assert shortcut > 500  # the shortcut is taken (with the random best)
+
