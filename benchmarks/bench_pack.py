@@ -19,6 +19,7 @@ import multiprocessing as mp
 import os
 import platform
 import resource
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -129,9 +130,11 @@ def main():
     for name, radii, target in cases(args):
         if args.only and args.only not in name:
             continue
+        load = os.getloadavg()[0]  # a shared machine: the figures mean little without it
         ours = run_limited(_run_polypack, (radii, target, args.growth_rate, 1), args.timeout * 3)
         peer = None if args.no_peer else run_limited(_run_spheropack, (radii, target, args.growth_rate, 1), args.timeout)
-        row = {"case": name, "n": int(radii.size), "target": target, "polypack": ours, "spheropack": peer}
+        row = {"case": name, "n": int(radii.size), "target": target, "polypack": ours, "spheropack": peer,
+               "load_average": [load, os.getloadavg()[0]]}
         if peer and "collisions" in peer and "collisions" in ours:
             row["rate_ratio"] = ours["collisions_per_second"] / max(peer["collisions_per_second"], 1e-300)
             row["time_ratio"] = ours["wall_time"] / peer["wall_time"]
@@ -140,7 +143,9 @@ def main():
         sys.stdout.flush()
     res_dir = Path(__file__).resolve().parent / "results"
     res_dir.mkdir(exist_ok=True)
-    info = {"machine": platform.platform(), "cpus": os.cpu_count(), "python": sys.version.split()[0],
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True,
+                            cwd=Path(__file__).resolve().parent).stdout.strip()
+    info = {"commit": commit, "machine": platform.platform(), "cpus": os.cpu_count(), "python": sys.version.split()[0],
             "growth_rate": args.growth_rate, "note": "shared 2-core machine, timings are noisy", "rows": rows}
     (res_dir / args.output).write_text(json.dumps(info, indent=2, default=float))
     print(f"wrote {res_dir / args.output}")
@@ -156,7 +161,8 @@ def _fmt(r):
 
 
 def _print_row(row):
-    print(f"\n== {row['case']}")
+    la = row.get("load_average")
+    print(f"\n== {row['case']}" + (f"   (load average {la[0]:.2f} -> {la[1]:.2f})" if la else ""))
     print(f"  polypack   : {_fmt(row['polypack'])}")
     print(f"  spheropack : {_fmt(row['spheropack'])}")
     if "rate_ratio" in row:
