@@ -1,0 +1,403 @@
+#!/usr/bin/env python
+"""Independent mutation check of the round-3 modules (issue 37's rule for resolving a round-3 issue).
+
+Before a round-3 issue (30, 31, 34, 35, 36) is called resolved, issue 37 asks for an
+independent mutation check of the modules it touched: plausible one-line bugs written
+from a reading of those modules only, *without* looking at the harness's list
+(``tools/mutate.py``) or at ``tools/mutants_independent.py``'s list, each aimed at the
+test files a maintainer would expect to notice it.  This is that list, grouped by issue
+(mutant ids ``r3-<issue>-...``).  It reuses mutate.py's machinery (tree copy, numba cache
+seeding, shards, ``--check``, ``--only``, JSON and markdown) with this list in place of
+the harness's::
+
+    python tools/mutants_round3.py --check          # every mutant applies once, compiles, names existing tests
+    nice python tools/mutants_round3.py --workdir /tmp/r3_a --shard 1/2 --no-baseline --json a.json &
+    nice python tools/mutants_round3.py --workdir /tmp/r3_b --shard 2/2 --no-baseline --json b.json &
+    wait; python tools/mutants_round3.py --markdown table.md a.json b.json
+    python tools/mutants_round3.py --issue 35 --list   # one issue's mutants (--issue filters before the rest)
+    python tools/mutants_round3.py --overlap        # mutants whose target text a harness mutant also edits
+
+As for mutants_independent.py: do not copy these into mutate.py when they are caught (the
+point is that the suite is measured on bugs nobody tuned it against).  Results:
+tools/mutants_result.md ("Round-3 independent check").
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import mutate  # noqa: E402
+from mutate import Mutant  # noqa: E402
+
+S = "src/polypack/"
+K = S + "_kernels/"
+M = S + "mechanics/"
+
+# the test files a maintainer would run for each module (the most specific first: -x stops there)
+T_EL = ("tests/test_mechanics_elastic.py",)
+T_DEMCHK = ("tests/test_dem.py", "tests/test_check_complete.py")
+T_STM = ("tests/test_stages_mechanics.py",)
+T_NETF = ("tests/test_network_files.py", "tests/test_io_bonds.py")
+T_OUT = ("tests/test_network_files.py", "tests/test_cli_mechanics_units.py", "tests/test_output_paths.py")
+T_SWEEP = ("tests/test_sweep.py",)
+T_CLIU = ("tests/test_cli_mechanics_units.py",)
+T_HOM = ("tests/test_homogenize.py",)
+T_HST = ("tests/test_stages_homogenize.py", "tests/test_homogenize.py")
+T_VOX = ("tests/test_io_voxel.py", "tests/test_homogenize.py")
+T_ROLL = ("tests/test_deposit_roll.py", "tests/test_deposit3d.py")
+T_DEP3 = ("tests/test_deposit3d.py", "tests/test_deposit_roll.py", "tests/test_deposit_periodic_window.py")
+T_PROF = ("tests/test_deposit_roll.py", "tests/test_stages_protocols.py")
+T_RIG = ("tests/test_mechanics_rigidity.py",)
+T_REG = ("tests/test_registry.py", "tests/test_declarations.py", "tests/test_options.py")
+T_GEN = ("tests/test_declarations.py", "tests/test_registry.py")
+
+ROUND3 = [
+    # ============================================================== issue 31: floppy / rigid, outputs
+    Mutant("r3-31-floppy-ref-index", M + "elastic.py",
+           "ref = float(np.linalg.eigvalsh(0.5 * (c_aff + c_aff.T))[-1])",
+           "ref = float(np.linalg.eigvalsh(0.5 * (c_aff + c_aff.T))[0])",
+           T_EL, "wrong index (smallest, not largest, affine eigenvalue as the floppy scale)"),
+    Mutant("r3-31-wrapping-all-axes", M + "elastic.py",
+           "    wrapping = spans.any(axis=1)\n    kbar",
+           "    wrapping = spans.all(axis=1)\n    kbar",
+           T_EL, "any/all (a cluster wrapping one axis only counted as disconnected)"),
+    Mutant("r3-31-rigid-one-soft", M + "elastic.py",
+           "rigid=n_soft == 0,",
+           "rigid=n_soft <= 1,",
+           T_EL + T_STM, "off-by-one (one floppy strain mode still called rigid)"),
+    Mutant("r3-31-pin-rotations", M + "elastic.py",
+           "pinned = (first[:, None] * nd + np.arange(3)[None, :]).ravel()",
+           "pinned = (first[:, None] * nd + np.arange(nd)[None, :]).ravel()",
+           T_EL, "over-constraint (rotations of the pinned particle fixed too)"),
+    Mutant("r3-31-dem-cs-max", M + "dem.py",
+           "c_s = math.sqrt((min(gmean, static) if static else gmean) / rho_bulk)",
+           "c_s = math.sqrt((max(gmean, static) if static else gmean) / rho_bulk)",
+           ("tests/test_dem.py",), "min/max (wave speed from the inertia-stiffened G': hides the error)"),
+    Mutant("r3-31-dem-samples-eq", M + "dem.py",
+           "    if samples_per_cycle > steps_per_cycle:\n",
+           "    if samples_per_cycle >= steps_per_cycle:\n",
+           T_DEMCHK, "off-by-one (samples_per_cycle = steps_per_cycle refused)"),
+    Mutant("r3-31-dem-discard-eq", M + "dem.py",
+           "or not 0 <= discard_cycles < cycles:",
+           "or not 0 <= discard_cycles <= cycles:",
+           T_DEMCHK, "off-by-one (discarding every cycle accepted: nothing left to fit)"),
+    Mutant("r3-31-dem-loss-flip", M + "dem.py",
+           "elif gpp > LOSS_TANGENT_LIMIT * gp:",
+           "elif gpp > LOSS_TANGENT_LIMIT * gp * 2.0:",
+           ("tests/test_dem.py", "tests/test_stages_mechanics.py"), "factor 2 (loss-tangent limit of an elastic response)"),
+    Mutant("r3-31-stage-floppy-flag", M + "stages.py",
+           "out[\"floppy\"] = int(not et.rigid)",
+           "out[\"floppy\"] = int(et.floppy_strains == 6)",
+           T_STM, "wrong flag (only fully floppy tensors flagged)"),
+    Mutant("r3-31-shear-flag-status", M + "stages.py",
+           "out[\"floppy\"] = int(res.status == \"floppy\")",
+           "out[\"floppy\"] = int(res.status != \"ok\")",
+           T_STM, "wrong flag (not-converged shear counted floppy)"),
+    Mutant("r3-31-measured-loss-kept", M + "stages.py",
+           "for k in (\"storage_modulus\", \"loss_modulus\", \"storage_modulus_sd\",",
+           "for k in (\"storage_modulus\", \"storage_modulus_sd\",",
+           T_STM, "dropped key (a not-converged G'' still averaged in)"),
+    Mutant("r3-31-bondless-flag", M + "stages.py",
+           "out = {\"estimator\": estimator, \"status\": \"floppy\", \"rigid\": False, \"floppy\": 1,",
+           "out = {\"estimator\": estimator, \"status\": \"floppy\", \"rigid\": False, \"floppy\": 0,",
+           T_STM, "wrong flag (a bondless pack not counted floppy)"),
+    Mutant("r3-31-gsd-image-sign", S + "io/bonds.py",
+           "    img = shift + c[j] - c[i]\n",
+           "    img = shift - c[j] + c[i]\n",
+           T_NETF, "wrong sign (GSD periodic image of a bond in the centred frame)"),
+    Mutant("r3-31-gsd-typeid", S + "io/bonds.py",
+           "frame.bonds.typeid = (btype - 1).astype(np.uint32)",
+           "frame.bonds.typeid = btype.astype(np.uint32)",
+           T_NETF, "off-by-one (1-based bond types written as GSD type ids)"),
+    Mutant("r3-31-vtm-parts-force", S + "io/bonds.py",
+           "if part.exists() and part.name not in own:",
+           "if part.exists() and part.name not in own and own:",
+           T_NETF, "dropped check (foreign _particles/_bonds.vtp replaced when there is no index)"),
+    Mutant("r3-31-self-bond", S + "io/bonds.py",
+           "bad = (i < 0) | (i >= n) | (j < 0) | (j >= n) | (i == j)",
+           "bad = (i < 0) | (i >= n) | (j < 0) | (j >= n)",
+           T_NETF, "dropped check (a bond of a particle with itself written)"),
+    Mutant("r3-31-min-image-sign", S + "io/bonds.py",
+           "return np.where(periodic, -np.round(delta / box), 0.0).astype(np.int64)",
+           "return np.where(periodic, np.round(delta / box), 0.0).astype(np.int64)",
+           T_NETF, "wrong sign (minimum-image shift of a bond)"),
+    Mutant("r3-31-new-output-kind", S + "_util.py",
+           "    if os.path.isfile(path) and not force:\n        have = file_kind(path)",
+           "    if os.path.isfile(path) and force:\n        have = file_kind(path)",
+           T_OUT, "inverted flag (--force needed to write onto a file of the same kind, other kinds replaced)"),
+    Mutant("r3-31-new-output-input", S + "_util.py",
+           "if src is not None and _same_file(path, src):",
+           "if src is not None and os.path.abspath(path) == src:",
+           T_OUT, "weaker comparison (an input named by a relative path is overwritten)"),
+    Mutant("r3-31-sweep-name-round", S + "ensemble/sweep.py",
+           "    return short if same else repr(v)",
+           "    return short",
+           T_SWEEP, "rounded folder name (0.2500000000000001 onto 0.25's folder)"),
+    Mutant("r3-31-radius-zero", S + "_cli/_network.py",
+           "if not math.isfinite(r) or r < 0:",
+           "if not math.isfinite(r) or r <= 0:",
+           T_CLIU, "comparison flipped (--radius 0, keep the file's unit, refused)"),
+    # ============================================================== issue 34: full field, voxelize
+    Mutant("r3-34-richardson-denominator", M + "fullfield.py",
+           "val = f[-1] + (f[-1] - f[-2]) / (r ** p - 1.0)",
+           "val = f[-1] + (f[-1] - f[-2]) / (r ** p + 1.0)",
+           T_HOM, "wrong sign (Richardson extrapolation denominator)"),
+    Mutant("r3-34-poisson", M + "fullfield.py",
+           "return None if k is None else (3.0 * k - 2.0 * g) / (2.0 * (3.0 * k + g))",
+           "return None if k is None else (3.0 * k - 2.0 * g) / (3.0 * k + g)",
+           T_HST, "dropped factor 2 (Poisson ratio from K, G)"),
+    Mutant("r3-34-willot-cos", M + "fullfield.py",
+           "k = k * np.cos(grids[b] / 2.0)",
+           "k = k * np.cos(grids[b])",
+           T_HOM, "factor 2 (half-angle of the rotated scheme's other axes)"),
+    Mutant("r3-34-willot-spacing", M + "fullfield.py",
+           "k = (2.0 / spacing[a]) * np.sin(th / 2.0)",
+           "k = (2.0 / spacing[0]) * np.sin(th / 2.0)",
+           T_HOM, "wrong axis (voxel size of x on every axis)"),
+    Mutant("r3-34-green-c0", M + "fullfield.py",
+           "c0 = (lam0 + mu0) / (mu0 * (lam0 + 2.0 * mu0))",
+           "c0 = (lam0 + 2.0 * mu0) / (mu0 * (lam0 + 2.0 * mu0))",
+           T_HOM, "wrong constant (Green operator's second term)"),
+    Mutant("r3-34-engineering-shear", M + "fullfield.py",
+           "e[m] = 1.0 if m < 3 else 0.5  # engineering shear gamma = 1",
+           "e[m] = 1.0  # engineering shear gamma = 1",
+           T_HOM, "factor 2 (tensor vs engineering shear strain)"),
+    Mutant("r3-34-coated-dim", M + "fullfield.py",
+           "return k0 + phi * d * dim * k0 / (dim * k0 + (1.0 - phi) * d)",
+           "return k0 + phi * d * 3 * k0 / (3 * k0 + (1.0 - phi) * d)",
+           T_HOM, "dimension lost (3D Maxwell-Garnett in 2D composite voxels)"),
+    Mutant("r3-34-aniso-shear", M + "fullfield.py",
+           "iso[np.arange(3, 6), np.arange(3, 6)] = g",
+           "iso[np.arange(3, 6), np.arange(3, 6)] = 2.0 * g",
+           T_HST, "factor 2 (shear diagonal of the isotropic projection)"),
+    Mutant("r3-34-stage-precision", M + "stages.py",
+           "precision=opts.get(\"precision\", \"double\"),",
+           "precision=\"double\",",
+           T_HST + ("tests/test_stage_option_walk.py",), "dropped option (precision never reaches homogenize)"),
+    Mutant("r3-34-stage-ext-error", M + "stages.py",
+           "ext[q + \"_ratio\"] = {\"value\": e[\"value\"] / ref, \"error\": e[\"error\"] / ref,",
+           "ext[q + \"_ratio\"] = {\"value\": e[\"value\"] / ref, \"error\": e[\"error\"],",
+           T_HST, "unit lost (Richardson error not made relative to the matrix)"),
+    Mutant("r3-34-voxel-shape-min", S + "io/voxel.py",
+           "return tuple(max(1, int(round(r * L / box.max()))) for L in box)",
+           "return tuple(max(1, int(round(r * L / box.min()))) for L in box)",
+           T_VOX, "min/max (resolution along the shortest axis)"),
+    Mutant("r3-34-exact-2d", S + "io/voxel.py",
+           "exact = np.array([float(np.sum(ball_volume(packing.radii[packing.species == s], dim))) / vol for s in range(ns)])",
+           "exact = np.array([float(np.sum(ball_volume(packing.radii[packing.species == s], 3))) / vol for s in range(ns)])",
+           T_VOX, "dimension lost (sphere volumes of disks)"),
+    Mutant("r3-34-vti-order", S + "io/voxel.py",
+           "{_b64(lab.reshape(n).ravel(order=\"F\"))}",
+           "{_b64(lab.reshape(n).ravel())}",
+           T_VOX, "wrong memory order (VTK x-fastest)"),
+    Mutant("r3-34-kernel-dy-axis", K + "voxel.py",
+           "dy = (j + 0.5) * hy - cy",
+           "dy = (j + 0.5) * hx - cy",
+           T_VOX, "wrong axis (x voxel size on y)"),
+    Mutant("r3-34-kernel-subsample-offset", K + "voxel.py",
+           "sz = dz + ((c + 0.5) / s - 0.5) * hz",
+           "sz = dz + (c / s - 0.5) * hz",
+           T_VOX, "off-by-half (sub-voxel points at the corners, z)"),
+    Mutant("r3-34-kernel-interior", K + "voxel.py",
+           "if d + half_diag <= r:",
+           "if d <= r:",
+           T_VOX, "tolerance (voxel counted wholly inside when its centre is)"),
+    # ============================================================== issue 35: deposition rules, profile
+    Mutant("r3-35-roll-pair-centre", K + "roll3d.py",
+           "u = (RA * RA - RB * RB + d * d) / (2.0 * d)",
+           "u = (RA * RA - RB * RB + d * d) / d",
+           T_ROLL, "factor 2 (centre of the contact circle of two supports)"),
+    Mutant("r3-35-roll-lambda-sign", K + "roll3d.py",
+           "lam[1] = -(a00 * a12 - a02 * a10) / det",
+           "lam[1] = (a00 * a12 - a02 * a10) / det",
+           T_ROLL, "wrong sign (Cramer cofactor of the three-contact rest test)"),
+    Mutant("r3-35-roll-force-b", K + "roll3d.py",
+           "fb = (u * w[2] / rho - ee) / d",
+           "fb = (u * w[2] / rho + ee) / d",
+           T_ROLL, "wrong sign (contact force on B while rolling on two)"),
+    Mutant("r3-35-roll-floor-stat", S + "generate/deposit.py",
+           "\"on_floor\": int(state[kr.RollState.N_FLOOR])",
+           "\"on_floor\": int(state[kr.RollState.N_STUCK])",
+           T_ROLL + ("tests/test_stages_protocols.py",), "wrong index (statistic slot)"),
+    Mutant("r3-35-drop-x-only", S + "generate/deposit.py",
+           "drop = rng.uniform(0.0, 1.0, (radii.size, 2)) * w",
+           "drop = rng.uniform(0.0, 1.0, (radii.size, 2)) * w[0]",
+           T_ROLL, "wrong axis (drop columns scaled by Lx on both axes)"),
+    Mutant("r3-35-species-unpermuted", S + "generate/deposit.py",
+           "pk = Packing(pos, rad, [w[0], w[1], height], species=species[perm], meta=meta,",
+           "pk = Packing(pos, rad, [w[0], w[1], height], species=species, meta=meta,",
+           T_DEP3, "dropped permutation (species of a shuffled 3D deposit)"),
+    Mutant("r3-35-last-resort-one-axis", K + "deposit3d.py",
+           "elif gbest[3] < np.inf and per[0] and per[1]:",
+           "elif gbest[3] < np.inf and per[0]:",
+           T_DEP3, "dropped condition (roll with a wall on y)"),
+    Mutant("r3-35-profile-slab", S + "analysis/deposits.py",
+           "v = np.pi * (r * r * (hi - lo) - (hi**3 - lo**3) / 3.0)",
+           "v = np.pi * (r * r * (hi - lo) - (hi**3 - lo**3) / 2.0)",
+           T_PROF, "wrong factor (volume of a spherical slab)"),
+    Mutant("r3-35-profile-block-axis", S + "analysis/deposits.py",
+           "by = np.clip((pos[:, 1] / box[1] * blocks).astype(np.int64), 0, blocks - 1)",
+           "by = np.clip((pos[:, 1] / box[0] * blocks).astype(np.int64), 0, blocks - 1)",
+           T_PROF, "wrong axis (footprint columns on y cut with Lx)"),
+    Mutant("r3-35-profile-ddof", S + "analysis/deposits.py",
+           "err = np.nanstd(fb, axis=0, ddof=1) / np.sqrt(np.sum(np.isfinite(fb), axis=0))",
+           "err = np.nanstd(fb, axis=0) / np.sqrt(np.sum(np.isfinite(fb), axis=0))",
+           T_PROF, "off-by-one (ddof of the layer standard errors)"),
+    Mutant("r3-35-profile-uncentred", S + "analysis/deposits.py",
+           "    hc = h - h.mean()\n",
+           "    hc = h\n",
+           T_PROF, "dropped centring (slope denominator)"),
+    Mutant("r3-35-profile-split", S + "analysis/deposits.py",
+           "    small = rad < split\n",
+           "    small = rad <= split\n",
+           T_PROF, "comparison flipped (split = r_max counts every sphere small)"),
+    Mutant("r3-35-profile-window", S + "analysis/deposits.py",
+           "window = (4.0 * dmax, free_surface_height(packing) - 4.0 * dmax)",
+           "window = (4.0 * dmax, free_surface_height(packing))",
+           T_PROF, "dropped term (window reaches the rough free surface)"),
+    # ============================================================== issue 36: rigidity analysis
+    Mutant("r3-36-rigid-fraction-lone", M + "rigidity_analysis.py",
+           "big = np.flatnonzero(np.asarray(self.cluster_sizes) >= 2)",
+           "big = np.flatnonzero(np.asarray(self.cluster_sizes) >= 1)",
+           T_RIG, "off-by-one (clusters of one particle counted rigid)"),
+    Mutant("r3-36-percolation-any", M + "rigidity_analysis.py",
+           "perc = bool(sp_c.all(axis=1).any()) if sp_c.size else False",
+           "perc = bool(sp_c.any(axis=1).any()) if sp_c.size else False",
+           T_RIG, "any/all (a cluster wrapping one axis called percolating)"),
+    Mutant("r3-36-deviator-trace", M + "rigidity_analysis.py",
+           "dev = f - np.trace(f) / 3.0 * np.eye(3)",
+           "dev = f - np.trace(f) / 2.0 * np.eye(3)",
+           T_RIG, "wrong constant (deviator in 3D)"),
+    Mutant("r3-36-nonaffinity-modes", M + "rigidity_analysis.py",
+           "gam = float(gam_m[3:].mean())",
+           "gam = float(gam_m[:3].mean())",
+           T_RIG, "wrong slice (non-affinity of the normal, not shear, strains)"),
+    Mutant("r3-36-backbone-z", M + "rigidity_analysis.py",
+           "bb_z = 2.0 * float(union.sum()) / max(int(bb_part.sum()), 1) if union.any() else None",
+           "bb_z = float(union.sum()) / max(int(bb_part.sum()), 1) if union.any() else None",
+           T_RIG, "dropped factor 2 (coordination = 2 bonds / particles)"),
+    Mutant("r3-36-isostatic", M + "rigidity_analysis.py",
+           "isostatic_coordination=2.0 * nd / cons,",
+           "isostatic_coordination=nd / cons,",
+           T_RIG, "dropped factor 2 (isostatic coordination)"),
+    Mutant("r3-36-cluster-order", M + "rigidity_analysis.py",
+           "order = np.lexsort((uniq, -counts))",
+           "order = np.lexsort((uniq, counts))",
+           T_RIG, "wrong sort order (smallest cluster first)"),
+    Mutant("r3-36-self-stress-sign", M + "rigidity_analysis.py",
+           "sss = int(floppy - maxwell)",
+           "sss = int(maxwell - floppy)",
+           T_RIG, "wrong sign (index theorem)"),
+    Mutant("r3-36-shear-fabric-modes", M + "rigidity_analysis.py",
+           "bshear = np.array([_fourth_shear(normals, bb[3 + p])[p] for p in range(3)])",
+           "bshear = np.array([_fourth_shear(normals, bb[p])[p] for p in range(3)])",
+           T_RIG, "wrong index (backbone of the normal strain for a shear plane)"),
+    Mutant("r3-36-participation-metric", M + "rigidity_analysis.py",
+           "part_all = np.sum(dmet[None] * zz * zz, axis=2).mean(axis=0)",
+           "part_all = np.sum(zz * zz, axis=2).mean(axis=0)",
+           T_RIG, "dropped metric (participation in raw, not D-weighted, units)"),
+    # ============================================================== issue 30: declarations, generated CLI
+    Mutant("r3-30-positive-zero", S + "_validate.py",
+           "    v = number(v)\n    if not v > 0:\n        raise Bad(\"must be > 0\")",
+           "    v = number(v)\n    if v < 0:\n        raise Bad(\"must be > 0\")",
+           T_REG, "comparison flipped (0 accepted as positive)"),
+    Mutant("r3-30-between-open", S + "_validate.py",
+           "if (v <= lo if lo_open else v < lo) or (v >= hi if hi_open else v > hi):",
+           "if (v < lo if lo_open else v < lo) or (v >= hi if hi_open else v > hi):",
+           T_REG, "open end accepted (lower bound of an open interval)"),
+    Mutant("r3-30-int-min", S + "_validate.py",
+           "        if v < lo:\n            raise Bad(f\"must be an integer >= {lo}\")",
+           "        if v <= lo:\n            raise Bad(f\"must be an integer >= {lo}\")",
+           T_REG, "off-by-one (the minimum itself refused)"),
+    Mutant("r3-30-integer-float", S + "_validate.py",
+           "if isinstance(v, float) and v.is_integer():",
+           "if isinstance(v, float):",
+           T_REG, "dropped check (2.5 accepted as the integer 2)"),
+    Mutant("r3-30-number-inf", S + "_validate.py",
+           "    if not math.isfinite(v):\n        raise Bad(\"must be finite\")",
+           "    if math.isnan(v):\n        raise Bad(\"must be finite\")",
+           T_REG, "weaker check (inf accepted as a number)"),
+    Mutant("r3-30-fill-ignored", S + "registry.py",
+           "if spec.default is not None and spec.fill:",
+           "if spec.default is not None:",
+           T_REG + ("tests/test_pipeline_options.py",), "dropped condition (fill=False defaults filled into tables)"),
+    Mutant("r3-30-api-name", S + "registry.py",
+           "return {(specs[k].api or k) if k in specs else k: v for k, v in table.items()}",
+           "return {k: v for k, v in table.items()}",
+           T_REG + ("tests/test_stage_option_walk.py",), "dropped mapping (api= names of options)"),
+    Mutant("r3-30-check-call-unchecked", S + "registry.py",
+           "            out[key] = spec.check(value) if spec.check is not None else value\n        except Bad as exc:\n            raise InvalidInputError(f\"{key}={value!r}: {exc}\") from None",
+           "            out[key] = value\n        except Bad as exc:\n            raise InvalidInputError(f\"{key}={value!r}: {exc}\") from None",
+           T_REG, "dropped check (API keywords not validated)"),
+    Mutant("r3-30-cli-fields-study", S + "_cli/_generated.py",
+           "return {k: s for k, s in cap.specs().items() if s.cli}",
+           "return {k: s for k, s in cap.specs().items() if s.study}",
+           T_GEN, "wrong attribute (study-only options offered as flags)"),
+    Mutant("r3-30-flag-default-unset", S + "_cli/_generated.py",
+           "default = None if spec.required or spec.default is None else spec.default",
+           "default = None",
+           T_GEN, "dropped default (generated flags show no declared default)"),
+    Mutant("r3-30-cli-type-or", S + "_cli/_generated.py",
+           "if d.startswith(\"number\") and \"array\" not in d and \" or \" not in d:",
+           "if d.startswith(\"number\") and \"array\" not in d:",
+           T_GEN, "dropped condition (number-or-list options typed float)"),
+    Mutant("r3-30-reference-unit", S + "_reference.py",
+           "{_cell(s.unit) or '–'}",
+           "'–'",
+           T_GEN, "unit lost (reference page's unit column)"),
+    Mutant("r3-30-default-dr", S + "analysis/_capabilities.py",
+           "dr: float = option(0.02, v.positive, \"bin width, user length units\")",
+           "dr: float = option(0.01, v.positive, \"bin width, user length units\")",
+           T_GEN + ("tests/test_analysis_cli.py",), "wrong default (rdf bin width)"),
+    Mutant("r3-30-default-growth", S + "generate/_capabilities.py",
+           "growth_steps: int = option(10, v.int_min(1),",
+           "growth_steps: int = option(1, v.int_min(1),",
+           T_GEN + ("tests/test_pack_cli.py",), "wrong default (SCRM growth stages)"),
+]
+
+ISSUES = ("30", "31", "34", "35", "36")
+
+
+def issue_of(m) -> str:
+    return m.id.split("-")[1]
+
+
+def overlap():
+    """Round-3 mutants whose target text overlaps a harness or independent mutant's in the same file."""
+    import mutants_independent
+
+    out = []
+    for m in ROUND3:
+        for h in list(mutate.MUTANTS) + list(mutants_independent.INDEPENDENT):
+            if h.path == m.path and (h.find in m.find or m.find in h.find):
+                out.append(f"{m.id} overlaps {h.id}")
+    return out
+
+
+def main(argv=None):
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if "--overlap" in argv:
+        lines = overlap()
+        print("\n".join(lines) if lines else "no overlap with the harness or the independent list")
+        return 0
+    ids = {m.id for m in ROUND3}
+    assert len(ids) == len(ROUND3), "duplicate ids"
+    chosen = ROUND3
+    if "--issue" in argv:
+        k = argv.index("--issue")
+        wanted = set(argv[k + 1].split(","))
+        bad = wanted - set(ISSUES)
+        if bad:
+            print(f"--issue {argv[k + 1]}: allowed {', '.join(ISSUES)}", file=sys.stderr)
+            return 2
+        chosen = [m for m in ROUND3 if issue_of(m) in wanted]
+        del argv[k:k + 2]
+    mutate.MUTANTS = chosen  # main() and write_markdown() read the module's list
+    return mutate.main(argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
