@@ -36,23 +36,25 @@ S = "src/polypack/"
 K = S + "_kernels/"
 M = S + "mechanics/"
 
-# the test files a maintainer would run for each module (the most specific first: -x stops there)
-T_EL = ("tests/test_mechanics_elastic.py",)
-T_DEMCHK = ("tests/test_dem.py", "tests/test_check_complete.py")
-T_STM = ("tests/test_stages_mechanics.py",)
-T_NETF = ("tests/test_network_files.py", "tests/test_io_bonds.py")
-T_OUT = ("tests/test_network_files.py", "tests/test_cli_mechanics_units.py", "tests/test_output_paths.py")
-T_SWEEP = ("tests/test_sweep.py",)
-T_CLIU = ("tests/test_cli_mechanics_units.py",)
-T_HOM = ("tests/test_homogenize.py",)
-T_HST = ("tests/test_stages_homogenize.py", "tests/test_homogenize.py")
-T_VOX = ("tests/test_io_voxel.py", "tests/test_homogenize.py")
-T_ROLL = ("tests/test_deposit_roll.py", "tests/test_deposit3d.py")
-T_DEP3 = ("tests/test_deposit3d.py", "tests/test_deposit_roll.py", "tests/test_deposit_periodic_window.py")
-T_PROF = ("tests/test_deposit_roll.py", "tests/test_stages_protocols.py")
-T_RIG = ("tests/test_mechanics_rigidity.py",)
-T_REG = ("tests/test_registry.py", "tests/test_declarations.py", "tests/test_options.py")
-T_GEN = ("tests/test_declarations.py", "tests/test_registry.py")
+# the test files a maintainer would run for each module (the most specific first: -x stops there);
+# tests/test_round3_survivors.py holds the tests written for the survivors of the first run and comes first
+T_S3 = ("tests/test_round3_survivors.py",)
+T_EL = T_S3 + ("tests/test_mechanics_elastic.py",)
+T_DEMCHK = T_S3 + ("tests/test_dem.py", "tests/test_check_complete.py")
+T_STM = T_S3 + ("tests/test_stages_mechanics.py",)
+T_NETF = T_S3 + ("tests/test_network_files.py", "tests/test_io_bonds.py")
+T_OUT = T_S3 + ("tests/test_network_files.py", "tests/test_cli_mechanics_units.py", "tests/test_output_paths.py")
+T_SWEEP = T_S3 + ("tests/test_sweep.py",)
+T_CLIU = T_S3 + ("tests/test_cli_mechanics_units.py",)
+T_HOM = T_S3 + ("tests/test_homogenize.py",)
+T_HST = T_S3 + ("tests/test_stages_homogenize.py", "tests/test_homogenize.py")
+T_VOX = T_S3 + ("tests/test_io_voxel.py", "tests/test_homogenize.py")
+T_ROLL = T_S3 + ("tests/test_deposit_roll.py", "tests/test_deposit3d.py")
+T_DEP3 = T_S3 + ("tests/test_deposit3d.py", "tests/test_deposit_roll.py", "tests/test_deposit_periodic_window.py")
+T_PROF = T_S3 + ("tests/test_deposit_roll.py", "tests/test_stages_protocols.py")
+T_RIG = T_S3 + ("tests/test_mechanics_rigidity.py",)
+T_REG = T_S3 + ("tests/test_registry.py", "tests/test_declarations.py", "tests/test_options.py")
+T_GEN = T_S3 + ("tests/test_declarations.py", "tests/test_registry.py")
 
 ROUND3 = [
     # ============================================================== issue 31: floppy / rigid, outputs
@@ -75,7 +77,7 @@ ROUND3 = [
     Mutant("r3-31-dem-cs-max", M + "dem.py",
            "c_s = math.sqrt((min(gmean, static) if static else gmean) / rho_bulk)",
            "c_s = math.sqrt((max(gmean, static) if static else gmean) / rho_bulk)",
-           ("tests/test_dem.py",), "min/max (wave speed from the inertia-stiffened G': hides the error)"),
+           T_S3 + ("tests/test_dem.py",), "min/max (wave speed from the inertia-stiffened G': hides the error)"),
     Mutant("r3-31-dem-samples-eq", M + "dem.py",
            "    if samples_per_cycle > steps_per_cycle:\n",
            "    if samples_per_cycle >= steps_per_cycle:\n",
@@ -87,7 +89,7 @@ ROUND3 = [
     Mutant("r3-31-dem-loss-flip", M + "dem.py",
            "elif gpp > LOSS_TANGENT_LIMIT * gp:",
            "elif gpp > LOSS_TANGENT_LIMIT * gp * 2.0:",
-           ("tests/test_dem.py", "tests/test_stages_mechanics.py"), "factor 2 (loss-tangent limit of an elastic response)"),
+           T_S3 + ("tests/test_dem.py", "tests/test_stages_mechanics.py"), "factor 2 (loss-tangent limit of an elastic response)"),
     Mutant("r3-31-stage-floppy-flag", M + "stages.py",
            "out[\"floppy\"] = int(not et.rigid)",
            "out[\"floppy\"] = int(et.floppy_strains == 6)",
