@@ -105,3 +105,82 @@ def test_not_converged_shear_is_not_floppy_and_its_inertial_error_uses_the_stati
     rho_bulk = rec["density"] * float(np.sum(4.0 / 3.0 * np.pi * pk.radii ** 3)) / float(np.prod(pk.box))
     want = (2.0 * np.pi * rec["frequency"] * h) ** 2 * rho_bulk / static / 3.0
     assert rec["inertial_error"] == pytest.approx(want, rel=1e-9, abs=0)
+
+
+def test_discarding_every_cycle_is_refused():
+    """discard_cycles must leave a cycle to fit: [0, cycles)."""
+    from polypack.mechanics import dem
+
+    assert dem.check_protocol(cycles=2, discard_cycles=1)["discard_cycles"] == 1
+    with pytest.raises(pp.InvalidInputError, match=r"discard_cycles=2: must be an integer in \[0, cycles\)"):
+        dem.check_protocol(cycles=2, discard_cycles=2)
+
+
+def test_elastic_stage_flags_a_partly_floppy_tensor(monkeypatch):
+    """The summary flag floppy counts every floppy tensor, not only the fully floppy ones: the xy
+    sheets (3 of 6 strain modes floppy with rotations) give floppy = 1."""
+    from polypack.mechanics import stages
+
+    net = _sheets()
+    monkeypatch.setattr(stages, "network_of", lambda packing, opts, path: (net, "distance"))
+    rec = stages.run_elastic(net.packing, registry.get("analysis", "elastic").resolve({"radius": 0.0}), None)
+    assert rec["floppy_strains"] == 3 and rec["status"] == "floppy" and rec["floppy"] == 1
+
+
+# ----------------------------------------------------------------- issue 34: full field, voxels
+def test_homogeneous_medium_gives_the_phase_young_modulus_and_poisson_ratio():
+    """E = 9KG/(3K+G) and nu = (3K-2G)/(2(3K+G)) of the result are the phase's own."""
+    from polypack.mechanics import Phase, homogenize
+
+    ph = Phase.from_young(3.01e9, 0.394)
+    r = homogenize(np.zeros((6, 6, 6), np.int64), ph, Phase.from_young(76e9, 0.23))
+    assert r.young == pytest.approx(3.01e9, rel=1e-12, abs=0) and r.poisson == pytest.approx(0.394, rel=1e-12, abs=0)
+
+
+def test_non_square_voxels_keep_a_disk_a_disk():
+    """Disks (r = 0.3, c = 0.283) on a square lattice of unit cells, 32 x 16 voxels per cell (h_y = 2 h_x):
+    the labels cover the disk's area (within 4 %: 2.2 % at this resolution), and its conductivity (contrast
+    10) is isotropic (square symmetry; within 3 %, the discretization's 1.2 %). Voxel sizes taken from one
+    axis make the disk a 2:1 ellipse (labels) or the cell a 2:1 rectangle (Green operator)."""
+    from polypack.mechanics import homogenize
+
+    pk = pp.Packing(np.array([[0.5, 0.5], [1.5, 0.5], [0.5, 1.5], [1.5, 1.5]]), [0.3] * 4, [2.0, 2.0])
+    img = pp.io.voxelize(pk, (64, 32))
+    assert img.spacing.tolist() == [1 / 32, 1 / 16]
+    assert img.voxel_inclusion_fraction == pytest.approx(np.pi * 0.09, rel=0.04)
+    k = homogenize(img, 1.0, 10.0, property="conductivity", tolerance=1e-10).conductivity
+    # measured: 1.631 / 1.650 (1.2 %); the same labels on square voxels (the 2:1 rectangle) 1.736 / 1.569 (10 %)
+    assert k[0, 0] == pytest.approx(k[1, 1], rel=0.03) and abs(k[0, 1]) < 1e-6
+
+
+@pytest.mark.parametrize("dim", [2, 3])
+def test_composite_voxel_conductivity_is_maxwell_garnett(dim):
+    """The coated composite-voxel rule is the Maxwell-Garnett (Hashin-Shtrikman) form of the voxel's
+    dimension: 2D k0 (k1 + k0 + phi d)/(k1 + k0 - phi d), 3D k0 (k1 + 2 k0 + 2 phi d)/(k1 + 2 k0 - phi d)."""
+    from polypack.mechanics.fullfield import _coated_conductivity
+
+    k0, k1 = 1.0, 10.0
+    d = k1 - k0
+    phi = np.array([0.0, 0.25, 0.5, 0.9, 1.0])
+    want = (k0 * (k1 + k0 + phi * d) / (k1 + k0 - phi * d) if dim == 2
+            else k0 * (k1 + 2 * k0 + 2 * phi * d) / (k1 + 2 * k0 - phi * d))
+    np.testing.assert_allclose(_coated_conductivity(k0, k1, phi, dim), want, rtol=1e-13)
+
+
+def test_stage_extrapolated_error_is_relative_to_the_matrix():
+    """[analysis.homogenize] with a resolution series: the Richardson estimate and its error are
+    both divided by the matrix modulus (recomputed from the record's own per-resolution moduli)."""
+    from polypack.mechanics import Phase
+    from polypack.mechanics.fullfield import richardson
+    from polypack.mechanics.stages import homogenize_record
+
+    pk = pp.pack(np.full(20, 0.5), volume_fraction=0.3, seed=2, progress=False)
+    m, f = Phase.from_young(3.01e9, 0.394), Phase.from_young(76e9, 0.23)
+    rec = homogenize_record(pk, m, [f], {"resolution": [8, 10, 12], "tolerance": 1e-6})
+    for q in ("bulk", "shear"):
+        vals = [c[q] for c in rec["convergence"]]
+        e = richardson([8, 10, 12], vals)
+        ref = getattr(m, q)
+        got = rec["extrapolated"][q + "_ratio"]
+        assert got["value"] == pytest.approx(e["value"] / ref, rel=1e-12, abs=0)
+        assert got["error"] == pytest.approx(e["error"] / ref, rel=1e-12, abs=0) and got["error"] < 1.0
