@@ -184,3 +184,16 @@ def test_stage_extrapolated_error_is_relative_to_the_matrix():
         got = rec["extrapolated"][q + "_ratio"]
         assert got["value"] == pytest.approx(e["value"] / ref, rel=1e-12, abs=0)
         assert got["error"] == pytest.approx(e["error"] / ref, rel=1e-12, abs=0) and got["error"] < 1.0
+
+
+# ----------------------------------------------------------------- issue 35: deposition rules, profile
+def test_roll_rule_drops_over_the_whole_rectangular_footprint():
+    """Roll rule on a 4 x 16 footprint (400 spheres, d = 1): spheres fall on the floor at their drop
+    column or roll off a neighbour by about a diameter, so the floor layer covers the whole long axis
+    (y in [5.5, 14.5]: 9/16 of it; measured 0.5-0.6).  Drop columns drawn on [0, Lx) for both axes put no
+    floor sphere there.  The statistics: on_floor is the number of spheres resting at z = r."""
+    pk = pp.deposit(np.full(400, 0.5), width=(4.0, 16.0), dim=3, rule="roll", seed=1)
+    floor = np.abs(pk.positions[:, 2] - pk.radii) < 1e-9
+    far = (pk.positions[:, 1] >= 5.5) & (pk.positions[:, 1] <= 14.5)
+    assert 0.35 < np.mean(far[floor]) < 0.8
+    assert pk.meta["on_floor"] == int(floor.sum()) and pk.meta["stuck"] == 0
