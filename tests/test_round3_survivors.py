@@ -197,3 +197,47 @@ def test_roll_rule_drops_over_the_whole_rectangular_footprint():
     far = (pk.positions[:, 1] >= 5.5) & (pk.positions[:, 1] <= 14.5)
     assert 0.35 < np.mean(far[floor]) < 0.8
     assert pk.meta["on_floor"] == int(floor.sum()) and pk.meta["stuck"] == 0
+
+
+def _cap(h, r):
+    """Volume of a spherical cap of height h (0 <= h <= 2r)."""
+    return np.pi * h * h * (3.0 * r - h) / 3.0
+
+
+def test_small_fraction_profile_cuts_spheres_by_exact_caps():
+    """Four columns (blocks = 2 on a 4 x 4 footprint), each a large sphere (r = 0.5) in each of two
+    layers [0, 1), [1, 2) and one small sphere (r = 0.25) cut by the layer edge z = 1 at a different
+    height per column: each column's layer fractions from the cap volume pi h^2 (3r - h)/3 by hand,
+    the layer's fraction pooled over the columns, its error the columns' spread (ddof = 1) over
+    sqrt(4).  An explicit split = r_max counts only the smaller spheres (radius < split)."""
+    from polypack.analysis.deposits import small_fraction_profile
+
+    zs = [1.125, 1.0, 0.875, 1.05]
+    cols = [(1.0, 1.0), (1.0, 3.0), (3.0, 1.0), (3.0, 3.0)]
+    pos, rad = [], []
+    for (x, y), z in zip(cols, zs):
+        pos += [[x, y, 0.5], [x, y, 1.5], [x + 0.6, y + 0.6, z]]
+        rad += [0.5, 0.5, 0.25]
+    pk = pp.Packing(np.array(pos), np.array(rad), [4.0, 4.0, 2.0], periodic=(True, True, False))
+    vl = 4.0 / 3.0 * np.pi * 0.125
+    low = np.array([_cap(1.0 - (z - 0.25), 0.25) for z in zs])  # the small sphere's part below z = 1
+    high = 4.0 / 3.0 * np.pi * 0.25 ** 3 - low
+    per_col = np.c_[low / (low + vl), high / (high + vl)]
+    pooled = [low.sum() / (low.sum() + 4 * vl), high.sum() / (high.sum() + 4 * vl)]
+    for split in (None, 0.5):
+        pr = small_fraction_profile(pk, window=(0.0, 2.0), n_layers=2, blocks=2, split=split)
+        np.testing.assert_allclose(pr["fraction"], pooled, rtol=1e-12)
+        np.testing.assert_allclose(pr["fraction_err"], np.std(per_col, axis=0, ddof=1) / 2.0, rtol=1e-12)
+
+
+def test_small_fraction_profile_default_window_stays_four_diameters_inside():
+    """Default window: from 4 d_max above the floor to 4 d_max below the free surface's lowest point."""
+    from polypack.analysis.deposits import free_surface_height, small_fraction_profile
+
+    g = np.arange(6) + 0.5
+    X, Y, Z = np.meshgrid(g, g, np.arange(16) + 0.5, indexing="ij")
+    pos = np.c_[X.ravel(), Y.ravel(), Z.ravel()]
+    rad = np.where(pos[:, 2] < 8.0, 0.25, 0.5)
+    pk = pp.Packing(pos, rad, [6.0, 6.0, 16.0], periodic=(True, True, False))
+    pr = small_fraction_profile(pk, n_layers=2, blocks=2)
+    assert list(pr["window"]) == pytest.approx([4.0, free_surface_height(pk) - 4.0], rel=1e-12, abs=0)
