@@ -241,3 +241,16 @@ def test_small_fraction_profile_default_window_stays_four_diameters_inside():
     pk = pp.Packing(pos, rad, [6.0, 6.0, 16.0], periodic=(True, True, False))
     pr = small_fraction_profile(pk, n_layers=2, blocks=2)
     assert list(pr["window"]) == pytest.approx([4.0, free_surface_height(pk) - 4.0], rel=1e-12, abs=0)
+
+
+@pytest.mark.parametrize("rule", ["roll", "surface"])
+def test_3d_deposit_keeps_each_sphere_with_its_species(rule):
+    """A shuffled (order = random) 3D deposit of a two-species size set: every sphere keeps its own
+    species (species 1 are the r = 0.25 spheres), whatever the deposition order."""
+    from types import SimpleNamespace
+
+    sizes = SimpleNamespace(radii=np.r_[np.full(60, 0.5), np.full(60, 0.25)], species=np.r_[np.zeros(60), np.ones(60)],
+                            dim=3)
+    pk = pp.deposit(sizes, width=4.5, seed=3, rule=rule)
+    assert pk.meta["order"] == "random" and pk.n == 120
+    np.testing.assert_array_equal(pk.species, (pk.radii < 0.4).astype(int))
