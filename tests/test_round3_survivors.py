@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from _lattices import simple_cubic
+from _lattices import fcc, simple_cubic
 
 import polypack as pp
 from polypack import registry
@@ -205,20 +205,20 @@ def _cap(h, r):
 
 
 def test_small_fraction_profile_cuts_spheres_by_exact_caps():
-    """Four columns (blocks = 2 on a 4 x 4 footprint), each a large sphere (r = 0.5) in each of two
+    """Four columns (blocks = 2 on a 4 x 8 footprint: block edges x = 2, y = 4), each a large sphere (r = 0.5) in each of two
     layers [0, 1), [1, 2) and one small sphere (r = 0.25) cut by the layer edge z = 1 at a different
     height per column: each column's layer fractions from the cap volume pi h^2 (3r - h)/3 by hand,
     the layer's fraction pooled over the columns, its error the columns' spread (ddof = 1) over
-    sqrt(4).  An explicit split = r_max counts only the smaller spheres (radius < split)."""
+    sqrt(4) (footprint blocks cut each axis by its own length).  An explicit split = r_max counts only the smaller spheres (radius < split)."""
     from polypack.analysis.deposits import small_fraction_profile
 
     zs = [1.125, 1.0, 0.875, 1.05]
-    cols = [(1.0, 1.0), (1.0, 3.0), (3.0, 1.0), (3.0, 3.0)]
+    cols = [(1.0, 3.0), (1.0, 7.0), (3.0, 3.0), (3.0, 7.0)]  # y = 3 and 7: blocks 0 and 1 (not both 1)
     pos, rad = [], []
     for (x, y), z in zip(cols, zs):
         pos += [[x, y, 0.5], [x, y, 1.5], [x + 0.6, y + 0.6, z]]
         rad += [0.5, 0.5, 0.25]
-    pk = pp.Packing(np.array(pos), np.array(rad), [4.0, 4.0, 2.0], periodic=(True, True, False))
+    pk = pp.Packing(np.array(pos), np.array(rad), [4.0, 8.0, 2.0], periodic=(True, True, False))
     vl = 4.0 / 3.0 * np.pi * 0.125
     low = np.array([_cap(1.0 - (z - 0.25), 0.25) for z in zs])  # the small sphere's part below z = 1
     high = 4.0 / 3.0 * np.pi * 0.25 ** 3 - low
@@ -254,3 +254,36 @@ def test_3d_deposit_keeps_each_sphere_with_its_species(rule):
     pk = pp.deposit(sizes, width=4.5, seed=3, rule=rule)
     assert pk.meta["order"] == "random" and pk.n == 120
     np.testing.assert_array_equal(pk.species, (pk.radii < 0.4).astype(int))
+
+
+# ----------------------------------------------------------------- issue 36: rigidity analysis
+def test_backbone_shear_fabric_reads_each_shear_strains_backbone():
+    """FCC (contact bonds, d = 1): the bonds along (0, 1, +-1) carry no force under eps_11 (eps b = 0)
+    and every bond carries one under gamma_23; backbone_shear_fabric[0] = <n_y^2 n_z^2> over the
+    gamma_23 backbone (all bonds: 2 of 6 directions at 1/4, so 1/12), recomputed from the result's
+    own backbone_bonds[3] (the eps_11 backbone would give 0)."""
+    from polypack.mechanics import rigidity
+
+    net = BondNetwork.from_packing(fcc(cells=2), epsilon=1e-6)
+    r = rigidity(net)
+    n = np.asarray(net.normal)
+    for p, (a, b) in enumerate([(1, 2), (0, 2), (0, 1)]):
+        w = r.backbone_bonds[3 + p].astype(float)
+        assert r.backbone_shear_fabric[p] == pytest.approx(np.sum(w * n[:, a] ** 2 * n[:, b] ** 2) / w.sum(),
+                                                            rel=1e-12, abs=0)
+    assert r.backbone_bonds[3].all() and not r.backbone_bonds[0].all()
+    assert r.backbone_shear_fabric[0] == pytest.approx(1.0 / 12.0, rel=1e-9, abs=0)
+
+
+def test_rigid_fraction_leaves_out_clusters_of_one():
+    """Straight chains along x with rotations: each sphere spins freely about the chain's axis (a zero
+    mode touching no bond), so no bond is rigid and every sphere is a rigid cluster of its own: the
+    fraction of spheres in rigid clusters of two or more is 0 (all spheres are clusters of one)."""
+    from polypack.mechanics import rigidity
+
+    c, m = 4, 2
+    pos = np.array([[a + 0.5, 2.0 * b + 0.5, 2.0 * e + 0.5] for a in range(c) for b in range(m) for e in range(m)])
+    pk = pp.Packing(pos, np.full(len(pos), 0.5), [float(c), 2.0 * m, 2.0 * m])
+    r = rigidity(BondNetwork.from_packing(pk, epsilon=0.01, normal_stiffness=KN, shear_stiffness=KS))
+    assert not r.rigid_bonds.any() and r.n_rattlers == 0
+    assert list(r.cluster_sizes) == [1] * len(pos) and r.rigid_fraction == 0.0
