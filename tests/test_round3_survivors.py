@@ -287,3 +287,40 @@ def test_rigid_fraction_leaves_out_clusters_of_one():
     r = rigidity(BondNetwork.from_packing(pk, epsilon=0.01, normal_stiffness=KN, shear_stiffness=KS))
     assert not r.rigid_bonds.any() and r.n_rattlers == 0
     assert list(r.cluster_sizes) == [1] * len(pos) and r.rigid_fraction == 0.0
+
+
+# ----------------------------------------------------------------- issue 30: declarations, generated flags
+def test_number_checks_refuse_infinity_and_non_integers():
+    """A number option refuses inf (only the *_or_inf checks take it); an integer option refuses 2.5
+    (and takes 100.0 as the integer 100), in a study table as in the API."""
+    from polypack.psd._capabilities import Generation
+
+    rdf = registry.get("analysis", "rdf")
+    with pytest.raises(pp.InvalidInputError, match=r"analysis.rdf.dr = inf: must be finite"):
+        rdf.resolve({"r_max": 2.0, "dr": float("inf")}, "analysis.rdf")
+    specs = registry.option_specs(Generation)
+    with pytest.raises(pp.InvalidInputError, match=r"psd.n = 100.5: expected an integer"):
+        registry.resolve_table(specs, {"n": 100.5}, "psd")
+    n = registry.resolve_table(specs, {"n": 100.0}, "psd")["n"]
+    assert n == 100 and isinstance(n, int)
+
+
+def test_api_kwargs_renames_fields_to_their_api_names():
+    """Fields declared with api= reach the public function under that name (shake_method -> method)."""
+    from polypack.generate._capabilities import CRMOptions
+
+    assert registry.api_kwargs(CRMOptions, {"shake_method": "paper", "volume_fraction": 0.5}) == \
+        {"method": "paper", "volume_fraction": 0.5}
+
+
+def test_number_or_word_options_are_text_flags():
+    """A flag whose value may be a number or a word ("jammed", inf, a list) is a text flag read as a
+    study value: --volume-fraction jammed reaches the table as "jammed", 0.55 as the number."""
+    from polypack._cli._generated import _table, cli_fields, cli_type
+
+    for kind, name, key in [("protocol", "crm", "volume_fraction"), ("protocol", "brownian", "rolling_moment"),
+                            ("analysis", "windows", "window_radius")]:
+        assert cli_type(cli_fields(registry.get(kind, name))[key]) is str, (name, key)
+    crm = registry.get("protocol", "crm")
+    assert _table(crm, {"volume_fraction": "jammed"}, "protocol")["volume_fraction"] == "jammed"
+    assert _table(crm, {"volume_fraction": "0.55"}, "protocol")["volume_fraction"] == 0.55
