@@ -188,14 +188,17 @@ def test_stage_extrapolated_error_is_relative_to_the_matrix():
 
 # ----------------------------------------------------------------- issue 35: deposition rules, profile
 def test_roll_rule_drops_over_the_whole_rectangular_footprint():
-    """Roll rule on a 4 x 16 footprint (400 spheres, d = 1): spheres fall on the floor at their drop
-    column or roll off a neighbour by about a diameter, so the floor layer covers the whole long axis
-    (y in [5.5, 14.5]: 9/16 of it; measured 0.5-0.6).  Drop columns drawn on [0, Lx) for both axes put no
-    floor sphere there.  The statistics: on_floor is the number of spheres resting at z = r."""
+    """Roll rule on a 4 x 16 footprint (400 spheres, d = 1): the first 40 spheres land on a nearly
+    bare floor at their drop column (or a diameter from it), so they cover the whole long axis: the
+    share in y in [5.5, 14.5] is about 9/16 (measured 0.55, 0.53, 0.48 for seeds 1-3); drop columns
+    drawn on [0, Lx) for both axes give 0 there (the later spheres then pile a ridge that rolls out
+    over the floor: the floor layer alone does not tell).  The surface is flat: height 6.7 (the
+    ridge: 11.6).  The statistics: on_floor is the number of spheres resting at z = r."""
     pk = pp.deposit(np.full(400, 0.5), width=(4.0, 16.0), dim=3, rule="roll", seed=1)
+    y = pk.positions[:40, 1]
+    assert 0.35 < np.mean((y >= 5.5) & (y <= 14.5)) < 0.8
+    assert pk.box[2] < 8.0
     floor = np.abs(pk.positions[:, 2] - pk.radii) < 1e-9
-    far = (pk.positions[:, 1] >= 5.5) & (pk.positions[:, 1] <= 14.5)
-    assert 0.35 < np.mean(far[floor]) < 0.8
     assert pk.meta["on_floor"] == int(floor.sum()) and pk.meta["stuck"] == 0
 
 
