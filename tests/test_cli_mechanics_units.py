@@ -134,3 +134,31 @@ def test_deposit_refuses_a_pack_and_a_3d_size_set(tmp_path, pack_file, capsys):
     (tmp_path / "d.gsd").mkdir()
     code, _, err = run(capsys, "deposit", "--n", "20", "-o", tmp_path / "d.gsd")
     assert code == 1 and "is a folder" in err
+
+
+def test_shear_offers_the_samples_per_cycle_its_errors_name(tmp_path, pack_file, capsys):
+    """The shear command's error for too few steps per cycle names samples_per_cycle; the flag
+    exists and reaches the test (a run with 10 samples per cycle records 10 per cycle)."""
+    code, _, err = run(capsys, "shear", pack_file, "--epsilon", "0.05", "--cycles", "2", "--steps-per-cycle", "50")
+    assert code == 1 and "samples_per_cycle=100" in err
+    code, out, _ = run(capsys, "shear", pack_file, "--epsilon", "0.05", "--cycles", "2", "--steps-per-cycle", "50",
+                       "--samples-per-cycle", "10", "--direction", "2,0", "--json", tmp_path / "s.json")
+    assert code == 0, out
+    d = json.loads((tmp_path / "s.json").read_text())
+    assert _find(d, "samples_per_cycle") == 10
+    code, _, err = run(capsys, "shear", pack_file, "--samples-per-cycle", "4")
+    assert code == 1 and "samples_per_cycle" in err
+
+
+def _find(d, key):
+    """The first value under ``key`` anywhere in nested dicts/lists (None if absent)."""
+    if isinstance(d, dict):
+        if key in d:
+            return d[key]
+        d = list(d.values())
+    if isinstance(d, list):
+        for v in d:
+            r = _find(v, key)
+            if r is not None:
+                return r
+    return None

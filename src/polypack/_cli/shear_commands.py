@@ -45,6 +45,8 @@ def register(app: typer.Typer) -> None:
         amplitude: float = typer.Option(1e-3, "--amplitude", help="Peak shear strain."),
         cycles: int = typer.Option(10, "--cycles", help="Oscillation cycles per direction."),
         steps_per_cycle: int = typer.Option(4000, "--steps-per-cycle", help="Time steps per cycle."),
+        samples_per_cycle: int = typer.Option(100, "--samples-per-cycle",
+                                              help="Stress samples per cycle (8 or more, at most --steps-per-cycle)."),
         damping: float = typer.Option(0.9, "--damping", help="Local damping coefficient alpha."),
         density: float = typer.Option(3690.0, "--density", help="Particle density before mass scaling."),
         json_out: Optional[Path] = typer.Option(None, "--json", help="Write the result (with time series) as JSON."),
@@ -82,7 +84,8 @@ def register(app: typer.Typer) -> None:
         try:
             res = oscillatory_shear(net, frequency=frequency, amplitude=amplitude, cycles=cycles,
                                     directions=_directions(direction), boundary=boundary,
-                                    steps_per_cycle=steps_per_cycle, damping=damping, density=density,
+                                    steps_per_cycle=steps_per_cycle, samples_per_cycle=samples_per_cycle,
+                                    damping=damping, density=density,
                                     trajectory=trajectory, progress=progress)
         except ShearInterrupted as exc:
             res = exc.result
