@@ -73,6 +73,21 @@ def _parse_radii(sizes, dim=None):
     return radii, species, dim
 
 
+def _bed_arrays(bed_positions, bed_radii, dim):
+    """``(positions (M, dim), radii (M,))`` of a bed as fresh float64 arrays (empty when
+    ``bed_positions`` is None), checked: as many radii as positions, radii finite and > 0,
+    positions finite."""
+    if bed_positions is None:
+        return np.zeros((0, dim)), np.zeros(0)
+    bed_p = np.array(bed_positions, dtype=np.float64).reshape(-1, dim)
+    bed_r = np.array(bed_radii, dtype=np.float64).reshape(-1)
+    if bed_r.shape[0] != bed_p.shape[0]:
+        raise InvalidInputError(f"bed has {bed_p.shape[0]} positions but {bed_r.shape[0]} radii")
+    if np.any(bed_r <= 0) or not np.all(np.isfinite(bed_r)) or not np.all(np.isfinite(bed_p)):
+        raise InvalidInputError("bed radii must be finite and > 0 and bed positions finite")
+    return bed_p, bed_r
+
+
 def deposit_arrays(radii, width, periodic=True, bed_positions=None, bed_radii=None,
                    tolerance=DEFAULT_TOLERANCE, progress=None, floor_rule=DEFAULT_FLOOR_RULE):
     """Deposit disks of the given radii **in the given order**; plain arrays in and out.
@@ -109,16 +124,8 @@ def deposit_arrays(radii, width, periodic=True, bed_positions=None, bed_radii=No
     from .._kernels.deposit import DepositParam, DepositState, DepositStatus, deposit_disks
 
     radii = np.ascontiguousarray(radii, dtype=np.float64)
-    if bed_positions is None:
-        bed_p = np.zeros((0, 2))
-        bed_r = np.zeros(0)
-    else:
-        bed_p = np.array(bed_positions, dtype=np.float64).reshape(-1, 2)
-        bed_r = np.array(bed_radii, dtype=np.float64).reshape(-1)
-        if bed_r.shape[0] != bed_p.shape[0]:
-            raise InvalidInputError(f"bed has {bed_p.shape[0]} positions but {bed_r.shape[0]} radii")
-        if np.any(bed_r <= 0) or not np.all(np.isfinite(bed_r)) or not np.all(np.isfinite(bed_p)):
-            raise InvalidInputError("bed radii must be finite and > 0 and bed positions finite")
+    bed_p, bed_r = _bed_arrays(bed_positions, bed_radii, 2)
+    if bed_r.size:
         if np.any(bed_p[:, 1] < bed_r * (1 - 1e-12)):
             raise InvalidInputError("every bed disk must lie above the floor (y >= r)")
         if periodic:
@@ -288,16 +295,8 @@ def deposit_arrays_roll(radii, width, drop, tolerance=DEFAULT_TOLERANCE, progres
     if drop.shape[0] != rad_new.size:
         raise InvalidInputError(f"drop has {drop.shape[0]} columns for {rad_new.size} spheres")
     lx, ly = float(width[0]), float(width[1])
-    if bed_radii is None:
-        bed_p = np.zeros((0, 3))
-        bed_r = np.zeros(0)
-    else:
-        bed_p = np.array(bed_positions, dtype=np.float64).reshape(-1, 3)
-        bed_r = np.array(bed_radii, dtype=np.float64).reshape(-1)
-        if bed_r.shape[0] != bed_p.shape[0]:
-            raise InvalidInputError(f"bed has {bed_p.shape[0]} positions but {bed_r.shape[0]} radii")
-        if np.any(bed_r <= 0) or not np.all(np.isfinite(bed_r)) or not np.all(np.isfinite(bed_p)):
-            raise InvalidInputError("bed radii must be finite and > 0 and bed positions finite")
+    bed_p, bed_r = _bed_arrays(None if bed_radii is None else bed_positions, bed_radii, 3)
+    if bed_r.size:
         bed_p[:, 0] = np.mod(bed_p[:, 0], lx)
         bed_p[:, 1] = np.mod(bed_p[:, 1], ly)
     m = bed_r.size
