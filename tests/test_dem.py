@@ -291,7 +291,7 @@ def test_cli_shear_bad_boundary(tmp_path, capsys):
         main(["shear", str(path), "--epsilon", "0.02", "--boundary", "walls"])
     assert info.value.code != 0
     err = capsys.readouterr().err
-    assert "boundary='walls'" in err and len(err.strip().splitlines()) == 1
+    assert '--boundary "walls": allowed: "lees-edwards", "plates"' in err and len(err.strip().splitlines()) == 1
 
 
 def test_trajectory_gsd(random_net, tmp_path):

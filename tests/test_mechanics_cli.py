@@ -31,6 +31,18 @@ def test_elastic_cli_fcc_in_mpa(fcc_file, tmp_path, capsys):
     assert "MPa" in text and "Z=12.000" in text and "G/G_affine = 1.0000" in text
 
 
+def test_elastic_flags_are_the_study_keys(fcc_file, tmp_path):
+    """The flags are [analysis.elastic]'s fields (issue 30): --normal-stiffness/--shear-stiffness with the
+    stage's default k_s = k_n / 10, the same tensor as the old --kn/--ks spellings (kept hidden)."""
+    a, b = tmp_path / "a.json", tmp_path / "b.json"
+    main(["elastic", str(fcc_file), "--radius", "0", "--normal-stiffness", "200", "--json", str(a)])
+    main(["elastic", str(fcc_file), "--radius", "0", "--kn", "200", "--ks", "20", "--json", str(b)])
+    da, db = json.loads(a.read_text()), json.loads(b.read_text())
+    assert da["shear_stiffness"] == 20.0 and da["elastic"]["stiffness"] == db["elastic"]["stiffness"]
+    # C11 of FCC with d = 1 in file units: sqrt(2) (k_n + k_s) = sqrt(2) * 220
+    np.testing.assert_allclose(da["elastic"]["stiffness"][0][0], np.sqrt(2) * 220.0, rtol=1e-6)
+
+
 def test_elastic_cli_file_units_and_options(fcc_file, tmp_path):
     out = tmp_path / "e.json"
     main(["elastic", str(fcc_file), "--radius", "0", "--ks", "20", "--no-rotations", "--json", str(out)])
@@ -39,7 +51,13 @@ def test_elastic_cli_file_units_and_options(fcc_file, tmp_path):
     assert d["elastic"]["rotations"] is False and "shear_modulus_MPa" not in d["elastic"]
 
 
-@pytest.mark.parametrize("args,msg", [(["--epsilon", "-0.1"], "epsilon=-0.1"), (["--kn", "0"], "normal_stiffness=0.0")])
+@pytest.mark.parametrize("args,msg", [
+    (["--epsilon", "-0.1"], "--epsilon -0.1: must be >= 0 (analysis.elastic.epsilon in a study file)"),
+    (["--normal-stiffness", "0"], "--normal-stiffness 0.0: must be > 0"),
+    (["--kn", "0"], "--normal-stiffness 0.0: must be > 0"),  # the old spelling, hidden
+    (["--kn", "50", "--normal-stiffness", "60"], "--kn 50.0: give --normal-stiffness only"),
+    (["--bonds", "bonds"], '--bonds "bonds": allowed: "auto", "distance", "protocol"'),
+])
 def test_elastic_cli_errors(fcc_file, args, msg, capsys):
     with pytest.raises(SystemExit) as exc:
         main(["elastic", str(fcc_file), *args])

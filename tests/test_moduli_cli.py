@@ -57,7 +57,7 @@ def test_moduli_run_folder_gives_error_bars(packs, tmp_path, capsys):
 @pytest.mark.parametrize(
     "args, msg",
     [
-        (["--matrix", "3e9", "--inclusions", "76e9,0.23"], "E,nu"),
+        (["--matrix", "3e9", "--inclusions", "76e9,0.23"], "--matrix 3000000000.0: expected [E, nu]"),
         (["--matrix", "3e9,0.7", "--inclusions", "76e9,0.23"], "(-1, 0.5]"),
         (["--matrix", "3e9,0.3", "--inclusions", "76e9,0.23", "--inclusions", "1,0.2", "--inclusions", "1,0.2"],
          "species"),

@@ -148,7 +148,7 @@ def test_cli_elastic_stiffness_flag(tmp_path, capsys):
     with pytest.raises(SystemExit) as exc:
         main(["elastic", str(src), "--stiffness", "ball"])
     err = capsys.readouterr().err.strip()
-    assert exc.value.code == 1 and err.startswith("error:") and "stiffness='ball'" in err and "\n" not in err
+    assert exc.value.code == 1 and err.startswith("error:") and '--stiffness "ball": allowed: "contact", "particle"' in err and "\n" not in err
 
 
 def test_vem_contacts_combine_per_ball_values_in_series():

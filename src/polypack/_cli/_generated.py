@@ -23,7 +23,7 @@ from __future__ import annotations
 import inspect
 import json
 from pathlib import Path
-from typing import Optional
+from typing import List, Optional
 
 import typer
 
@@ -76,13 +76,19 @@ def cli_fields(cap) -> dict:
     return {k: s for k, s in cap.specs().items() if s.cli}
 
 
+def _esc(text: str) -> str:
+    """``[`` escaped for rich markup (``[[normal, shear]]`` and ``[N/m]`` are shown, not read as tags)."""
+    return str(text).replace("\\[", "[").replace("[", "\\[")
+
+
 def _help(spec) -> str:
     unit = f" \\[{spec.unit}]" if spec.unit else ""  # escaped for rich markup: shows "[N/m]"
+    doc, describe = _esc(spec.doc), _esc(spec.describe)
     if spec.required:
-        return f"{spec.doc}{unit} ({spec.describe}; required)."
-    if spec.default is None:
-        return f"{spec.doc}{unit} ({spec.describe}; unset: the run's own default)."
-    return f"{spec.doc}{unit} ({spec.describe})."  # typer shows [default: ...]
+        return f"{doc}{unit} ({describe}; required)."
+    if spec.default is None:  # the doc says what unset means ("unset: k_n / 10"), else the run decides
+        return f"{doc}{unit} ({describe}" + (")." if "unset" in spec.doc else "; unset: the run's own default).")
+    return f"{doc}{unit} ({describe})."  # typer shows [default: ...]
 
 
 def _parse_text(spec, value):
@@ -97,10 +103,12 @@ def _parse_text(spec, value):
         return value
 
 
-def _field_params(cap, reserved, short=None) -> list:
-    """One typer option per CLI field (``short``: extra short flags, ``{field: "-c"}``)."""
+def _field_params(cap, reserved, short=None, *, repeat=(), notes=None) -> list:
+    """One typer option per CLI field (``short``: extra short flags, ``{field: "-c"}``; ``repeat``: fields
+    whose flag may be given several times, one item each; ``notes``: ``{field: text}`` added to the help)."""
     params = []
     short = short or {}
+    notes = notes or {}
     for key, spec in cli_fields(cap).items():
         if key in reserved:
             raise InvalidInputError(f"{cap.kind} {cap.name!r}: option {key!r} clashes with the command's own "
@@ -111,12 +119,26 @@ def _field_params(cap, reserved, short=None) -> list:
         if default is not None and typ is str and not isinstance(default, str):
             default = fmt(default)  # shown and parsed back as in a study file (TOML)
         extra = [short[key]] if key in short else []
+        text = _help(spec) + (f" {notes[key]}" if key in notes else "")
         if typ is bool:
-            opt = typer.Option(default, f"{flag(key)}/--no-{key.replace('_', '-')}", *extra, help=_help(spec))
+            opt = typer.Option(default, f"{flag(key)}/--no-{key.replace('_', '-')}", *extra, help=text)
         else:
-            opt = typer.Option(default, flag(key), *extra, help=_help(spec))
-        params.append(inspect.Parameter(key, inspect.Parameter.KEYWORD_ONLY, default=opt, annotation=Optional[typ]))
+            opt = typer.Option(default, flag(key), *extra, help=text)
+        ann = Optional[List[typ]] if key in repeat else Optional[typ]
+        params.append(inspect.Parameter(key, inspect.Parameter.KEYWORD_ONLY, default=opt, annotation=ann))
     return params
+
+
+def _repeated(spec, values):
+    """The value of a repeatable flag: one occurrence as given, several an array of their items
+    (``--inclusions 76e9,0.23 --inclusions 70e9,0.2`` -> ``[["76e9", "0.23"], ["70e9", "0.2"]]``)."""
+    if not values:
+        return None
+    if len(values) == 1:
+        return values[0]
+    from .._validate import _split
+
+    return [_split(_parse_text(spec, x)) for x in values]
 
 
 def _table(cap, given: dict, path: str) -> dict:
@@ -141,15 +163,33 @@ def _kw(name, annotation, default, *decls, help=""):
                              default=typer.Option(default, *decls, help=help))
 
 
-def options_from(kind: str, name: str, path: str | None = None, short=None):
+def options_from(kind: str, name: str, path: str | None = None, short=None, *, aliases=None, repeat=(), notes=None,
+                 prepare=None):
     """Decorator of a hand-written command: its option flags are the capability's fields.
 
     The command declares only its own parameters (output, ``--n``, ``--seed`` ...) plus a
     keyword ``options``; the decorator adds one flag per field of the options dataclass
     (as :func:`register_generated` does) and calls the command with ``options`` = the given
     flags checked and resolved like the study table (defaults filled, cross-key checks run).
-    Use it for commands whose output is special (a bonds file, a summary line).  ``short``:
-    extra short flags of some fields (``{"volume_fraction": "-c"}``).
+    Use it for commands whose output is special (a bonds file, a summary line).
+
+    Parameters
+    ----------
+    short : dict, optional
+        Extra visible flags of some fields (``{"volume_fraction": "-c"}``).
+    aliases : dict, optional
+        Hidden deprecated spellings of a field's flag (``{"--kn": "normal_stiffness"}``): the
+        value goes to the field; giving both spellings (the field's flag at a value other than
+        its default) is an error.
+    repeat : tuple of str
+        Array-valued fields whose flag may be repeated, one item per occurrence
+        (``--inclusions E,nu`` once per species).
+    notes : dict, optional
+        ``{field: text}`` added to the field's help (what the command does when it is unset).
+    prepare : callable, optional
+        ``prepare(own, flags) -> flags`` with the command's own arguments and the raw field
+        values (``None``: not given), before they are checked: fill values from elsewhere (a
+        run folder's study), map a deprecated value, refuse a combination.
     """
 
     def deco(func):
@@ -161,10 +201,33 @@ def options_from(kind: str, name: str, path: str | None = None, short=None):
         own = [p.replace(kind=inspect.Parameter.KEYWORD_ONLY, annotation=hints.get(p.name, p.annotation))
                for p in inspect.signature(func).parameters.values() if p.name != "options"]
         names = {p.name for p in own}
-        fields = _field_params(cap, names, short)
+        fields = _field_params(cap, names, short, repeat=repeat, notes=notes)
+        specs = cli_fields(cap)
+        alias_params = {}
+        for old, key in (aliases or {}).items():
+            pname = "alias_" + old.lstrip("-").replace("-", "_")
+            if key not in specs or pname in names or old in {flag(k) for k in specs}:
+                raise InvalidInputError(f"alias {old} of {cap.name!r}: {key!r} is not a free field of its options")
+            alias_params[pname] = (old, key)
+            ann = Optional[cli_type(specs[key])]
+            fields.append(inspect.Parameter(pname, inspect.Parameter.KEYWORD_ONLY, annotation=ann,
+                                            default=typer.Option(None, old, hidden=True,
+                                                                 help=f"Deprecated spelling of {flag(key)}.")))
+        defaults = {p.name: p.default.default for p in fields}
 
         def command(**kw):
             mine = {k: kw.pop(k) for k in names}
+            for pname, (old, key) in alias_params.items():
+                value = kw.pop(pname)
+                if value is None:
+                    continue
+                if kw[key] is not None and kw[key] != defaults[key]:
+                    raise InvalidInputError(f"{old} {fmt(value)}: give {flag(key)} only ({old} is its old spelling)")
+                kw[key] = value
+            for key in repeat:
+                kw[key] = _repeated(specs[key], kw[key])
+            if prepare is not None:
+                kw = prepare(mine, kw)
             return func(**mine, options=_table(cap, kw, where))
 
         command.__signature__ = inspect.Signature(own + fields)

@@ -9,8 +9,13 @@ One meaning for the shared options (issue 31):
 ``--bonds``
     ``auto`` (default): the bonds stored in the file (a network file written by
     ``write_network`` / ``convert``) or made by its protocol (Brownian dynamics), else every
-    pair closer than ``(1 + epsilon)(r_i + r_j)``; ``file``: only stored/protocol bonds
-    (an error if there are none); ``distance``: always the epsilon rule. The line says which.
+    pair closer than ``(1 + epsilon)(r_i + r_j)``; ``protocol`` (``file`` in
+    ``export-network`` and the old spelling in ``elastic``/``shear``): only stored/protocol
+    bonds (an error if there are none); ``distance``: always the epsilon rule. The line says which.
+
+``elastic`` and ``shear`` take these flags from the ``bonds``, ``epsilon``, ``radius`` ... fields
+of their stages' options (:mod:`polypack.mechanics._capabilities`); :data:`NETWORK_ALIASES`
+keeps their old spellings ``--kn``/``--ks`` as hidden flags.
 """
 
 from __future__ import annotations
@@ -21,7 +26,22 @@ import numpy as np
 
 from ..errors import InvalidInputError
 
-BOND_CHOICES = ("auto", "file", "distance")
+BOND_CHOICES = ("auto", "file", "protocol", "distance")
+
+#: Hidden old spellings of the stiffness flags of ``elastic`` and ``shear`` (before issue 30).
+NETWORK_ALIASES = {"--kn": "normal_stiffness", "--ks": "shear_stiffness"}
+#: What the bond options mean for a file on the command line (added to their help).
+NETWORK_NOTES = {"bonds": "For a file: the pack's own bonds are also those stored in a network file "
+                          "(write_network, export-network); 'file' is the old spelling of 'protocol'."}
+#: ``bonds`` field value -> :func:`network_from_file` rule.
+FILE_BONDS = {"auto": "auto", "protocol": "protocol", "distance": "distance"}
+
+
+def cli_bonds(own, flags):
+    """``prepare`` hook of ``elastic``/``shear``: the old ``--bonds file`` is ``protocol``."""
+    if flags.get("bonds") == "file":
+        flags = {**flags, "bonds": "protocol"}
+    return flags
 
 
 def check_radius(radius):
@@ -65,7 +85,8 @@ def network_from_file(path, *, bonds="auto", epsilon=0.01, radius=0.25e-6, fmt=N
         i, j, shift = brownian_bonds(pk)
         net = BondNetwork.from_pairs(pk, i, j, shift, **kw)
         return pk, net, f"{net.n_bonds} bonds made by the protocol (--bonds distance rebuilds them by epsilon)", units
-    if bonds == "file":
-        raise InvalidInputError(f"--bonds file: {path} stores no bonds; use --bonds auto or distance")
+    if bonds in ("file", "protocol"):
+        raise InvalidInputError(f"--bonds {bonds}: {path} stores no bonds and its protocol made none; "
+                                "use --bonds auto or distance")
     net = BondNetwork.from_packing(pk, epsilon=epsilon, **kw)
     return pk, net, f"{net.n_bonds} bonds by the epsilon rule (pairs closer than (1 + {epsilon:g})(r_i + r_j))", units

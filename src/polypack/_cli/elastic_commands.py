@@ -8,6 +8,9 @@ from typing import Optional
 
 import typer
 
+from ._generated import options_from
+from ._network import FILE_BONDS, NETWORK_ALIASES, NETWORK_NOTES, cli_bonds
+
 
 def elastic_report(pk, epsilon=0.01, kn=100.0, ks=10.0, radius=0.25e-6, rotations=True, solver="auto", net=None,
                    stiffness="contact"):
@@ -36,38 +39,36 @@ def elastic_report(pk, epsilon=0.01, kn=100.0, ks=10.0, radius=0.25e-6, rotation
 
 def register(app: typer.Typer) -> None:
     @app.command()
+    @options_from("mechanics", "elastic", aliases=NETWORK_ALIASES, notes=NETWORK_NOTES, prepare=cli_bonds)
     def elastic(
         file: Path = typer.Argument(..., help="Packing file (gsd, xyz, lammps data, csv)."),
-        epsilon: float = typer.Option(0.01, help="Bond every pair closer than (1 + epsilon)(r_i + r_j)."),
-        kn: float = typer.Option(100.0, "--kn", help="Normal stiffness per contact, N/m (seed 003: 100)."),
-        ks: float = typer.Option(10.0, "--ks", help="Shear stiffness per contact, N/m (seed 003: kn/10)."),
-        stiffness: str = typer.Option("contact", "--stiffness", help="contact: --kn/--ks per contact; particle: "
-                                      "per ball, in series per contact (PFC 4, seed 003 Table 1: kn/2 for equal balls)."),
-        radius: float = typer.Option(
-            0.25e-6, help="Mean particle radius in metres the lengths are rescaled to (seed 003: 0.25 µm); "
-            "0 keeps the file's length unit."),
-        rotations: bool = typer.Option(True, "--rotations/--no-rotations", help="Let particles rotate."),
-        solver: str = typer.Option("auto", help="auto, direct (exact floppy-mode count), amg or cg."),
         json_out: Optional[Path] = typer.Option(None, "--json", help="Write the results as JSON here."),
         fmt: Optional[str] = typer.Option(None, "--format", help="Override the file format."),
-        bonds: str = typer.Option("auto", "--bonds", help="auto (bonds stored in the file or made by its protocol, "
-                                  "else the epsilon rule), file (stored only) or distance (always epsilon)."),
         force: bool = typer.Option(False, "--force", help="Replace an existing --json file of another kind."),
+        options: dict = None,
     ):
-        """Exact linear elastic tensor of the bonded network (static limit of seed 003's shear test)."""
+        """Exact linear elastic tensor of the bonded network (static limit of seed 003's shear test).
+
+        The option flags are the keys of \\[analysis.elastic] in a study (same defaults and units).
+        """
         import numpy as np
 
         from .._util import atomic_open, check_new_output
-        from ._network import check_radius, network_from_file
+        from ..mechanics.stages import _stiffnesses
+        from ._network import network_from_file
 
         if json_out is not None:  # checked before the computation
             check_new_output(json_out, "JSON", inputs=(file,), force=force, option="--json")
-        r = check_radius(radius)
-        pk, net, bonds_note, units_note = network_from_file(file, bonds=bonds, epsilon=epsilon, radius=radius,
-                                                            fmt=fmt, rescale=False, normal_stiffness=kn,
-                                                            shear_stiffness=ks, stiffness=stiffness)
+        o = options
+        kn, ks = _stiffnesses(o)  # shear_stiffness unset: normal_stiffness / 10 (seed 003 Table 1)
+        epsilon, radius, stiffness = o["epsilon"], o["radius"], o.get("stiffness", "contact")
+        pk, net, bonds_note, units_note = network_from_file(file, bonds=FILE_BONDS[o["bonds"]], epsilon=epsilon,
+                                                            radius=radius, fmt=fmt, rescale=False,
+                                                            normal_stiffness=kn, shear_stiffness=ks,
+                                                            stiffness=stiffness)
         typer.echo(f"{file}: {units_note}; {bonds_note}")
-        res = elastic_report(pk, epsilon, kn, ks, r, rotations, solver, net=net, stiffness=stiffness)
+        res = elastic_report(pk, epsilon, kn, ks, radius or None, o["rotations"], o["solver"], net=net,
+                             stiffness=stiffness)
         res = {"file": str(file), "bonds_source": bonds_note, "length_scale": units_note, **res}
         if json_out is not None:
             with atomic_open(json_out, "w") as fh:

@@ -11,31 +11,22 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import List, Optional
+from typing import Optional
 
 import numpy as np
 import typer
 
+from ._generated import options_from
+
 ESTIMATES = ("mori_tanaka", "self_consistent", "hs_lower", "hs_upper", "three_point_lower", "three_point_upper", "mefm")
 
 
-def parse_phase(text: str, what: str):
-    """``"E,nu"`` -> Phase (E in the user's unit)."""
-    from ..errors import InvalidInputError
-    from ..mechanics import Phase
-
-    try:
-        e, nu = (float(t) for t in str(text).split(","))
-    except ValueError:
-        raise InvalidInputError(f"{what}={text!r} must be 'E,nu' (Young's modulus, Poisson's ratio), e.g. 3.01e9,0.394") from None
-    return Phase.from_young(e, nu)
-
-
-def moduli_of_pack(pk, matrix, inclusions, three_point=True):
+def moduli_of_pack(pk, matrix, inclusions, three_point=True, pair_estimate=True):
     """Every estimate for one pack (:func:`polypack.ensemble.moduli_stage.moduli_of_pack`)."""
     from ..ensemble.moduli_stage import moduli_of_pack as _of_pack
 
-    return _of_pack(pk, matrix, inclusions, three_point=three_point, path="--inclusions")
+    return _of_pack(pk, matrix, inclusions, three_point=three_point, pair_estimate=pair_estimate,
+                    path="--inclusions")
 
 
 def summarize(rows, matrix):
@@ -45,17 +36,21 @@ def summarize(rows, matrix):
     return _summarize(rows, matrix)
 
 
-def study_phases(folder):
-    """``(matrix, inclusions)`` of the ``[analysis.moduli]`` table of a run folder's resolved study, or None."""
-    from ..ensemble.moduli_stage import phases_of
-
+def study_table(folder):
+    """The ``[analysis.moduli]`` table of a run folder's resolved study, or None."""
     p = Path(folder) / "study.resolved.json"
     if not p.is_file():
         return None
     table = json.loads(p.read_text(encoding="utf-8")).get("study", {}).get("analysis", {}).get("moduli")
-    if not table:
-        return None
-    return phases_of(table)
+    return table or None
+
+
+def study_phases(folder):
+    """``(matrix, inclusions)`` of the ``[analysis.moduli]`` table of a run folder's resolved study, or None."""
+    from ..ensemble.moduli_stage import phases_of
+
+    table = study_table(folder)
+    return None if table is None else phases_of(table)
 
 
 def load_packs(path):
@@ -111,44 +106,53 @@ def plot_figs_8_9(curves, matrix, inclusion, fractions=None, axes=None, title=No
     return axes
 
 
+def _phases_from_folder(own, flags):
+    """``prepare`` hook: ``--matrix``/``--inclusions`` both or neither; neither: the run folder's study."""
+    from ..errors import InvalidInputError
+
+    path = own["path"]
+    if (flags.get("matrix") is None) != (flags.get("inclusions") is None):
+        raise InvalidInputError("give both --matrix and --inclusions, or neither (a run folder whose study has "
+                                "an [analysis.moduli] table)")
+    if flags.get("matrix") is None:
+        table = study_table(path) if Path(path).is_dir() else None
+        if table is None:
+            raise InvalidInputError(
+                f"{path}: give --matrix E,nu and --inclusions E,nu (only a run folder whose study has an "
+                "[analysis.moduli] table provides them)")
+        flags = {**flags, "matrix": table["matrix"], "inclusions": table["inclusions"]}
+    return flags
+
+
+_FOLDER = "Unset with a run folder: its study's \\[analysis.moduli] value."
+
+
 def register(app: typer.Typer) -> None:
     @app.command()
+    @options_from("mechanics", "moduli", repeat=("inclusions",), prepare=_phases_from_folder,
+                  notes={"matrix": "'E,nu' (e.g. 3.01e9,0.394). " + _FOLDER,
+                         "inclusions": "'E,nu', once for all species or repeated once per species. " + _FOLDER})
     def moduli(
         path: Path = typer.Argument(..., help="Packing file, or a run folder (its realizations give error bars)."),
-        matrix: Optional[str] = typer.Option(
-            None, "--matrix", help="Matrix 'E,nu' (e.g. 3.01e9,0.394); default for a run folder: its study's "
-            "[analysis.moduli] matrix."),
-        inclusions: Optional[List[str]] = typer.Option(
-            None, "--inclusions", help="Inclusion 'E,nu'; once for all species or once per species (default for a "
-            "run folder: its study's [analysis.moduli] inclusions)."),
-        three_point: bool = typer.Option(True, help="Measure zeta2/eta2 and the three-point bounds (slower)."),
         json_out: Optional[Path] = typer.Option(None, "--json", help="Write the summary as JSON here."),
+        options: dict = None,
     ):
-        """Effective moduli of a pack: MT, SC, HS, three-point bounds (zeta2, eta2 of the pack) and MEFM (its RDFs)."""
-        from .._util import atomic_open, check_new_output, file_kind
+        """Effective moduli of a pack: MT, SC, HS, three-point bounds (zeta2, eta2 of the pack) and MEFM (its RDFs).
 
-        from ..errors import InvalidInputError
+        The option flags are the keys of \\[analysis.moduli] in a study (same defaults).
+        """
+        from .._util import atomic_open, check_new_output, file_kind
+        from ..mechanics import Phase
 
         if json_out is not None:  # checked before computing
             check_new_output(json_out, file_kind(json_out), inputs=(path,), option="--json")
-
-        if (matrix is None) != (not inclusions):
-            raise InvalidInputError("give both --matrix and --inclusions, or neither (a run folder whose study has "
-                                    "an [analysis.moduli] table)")
-        if matrix is None:
-            phases = study_phases(path) if Path(path).is_dir() else None
-            if phases is None:
-                raise InvalidInputError(
-                    f"{path}: give --matrix E,nu and --inclusions E,nu (only a run folder whose study has an "
-                    "[analysis.moduli] table provides them)")
-            m, incs = phases
-        else:
-            m = parse_phase(matrix, "--matrix")
-            incs = [parse_phase(t, "--inclusions") for t in inclusions]
+        m = Phase.from_young(*options["matrix"])
+        incs = [Phase.from_young(*p) for p in options["inclusions"]]
+        three_point = options["three_point"]
         packs, names = load_packs(path)
         rows = []
         for pk in packs:
-            rows.append(moduli_of_pack(pk, m, incs, three_point=three_point))
+            rows.append(moduli_of_pack(pk, m, incs, three_point=three_point, pair_estimate=options["mefm"]))
         res = {"path": str(path), "files": names, "matrix": m.to_dict(), "inclusions": [p.to_dict() for p in incs],
                **summarize(rows, m)}
         typer.echo(f"{path}: {len(packs)} pack(s), inclusion volume fraction {res['volume_fraction']:.4f}")

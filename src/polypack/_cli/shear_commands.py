@@ -8,63 +8,64 @@ from typing import List, Optional
 
 import typer
 
+from ._generated import options_from
+from ._network import FILE_BONDS, NETWORK_ALIASES, NETWORK_NOTES, cli_bonds
 
-def _directions(values):
-    if not values:
-        return 6
+
+def _direction_pairs(values):
+    """The old repeated ``--direction NORMAL,SHEAR`` as the ``directions`` value ``[[2, 0], ...]``."""
+    from ..errors import InvalidInputError
+
     out = []
     for v in values:
         parts = v.replace(",", " ").split()
-        if len(parts) != 2:
+        try:
+            out.append([int(parts[0]), int(parts[1])])
+            if len(parts) != 2:
+                raise ValueError
+        except (ValueError, IndexError):
+            raise InvalidInputError(f"--direction {v!r}: give 'NORMAL,SHEAR' axes, e.g. 2,0 "
+                                    "(or --directions \"[[2, 0]]\")") from None
+    return out
+
+
+def _prepare(own, flags):
+    """The old ``--bonds file`` and the old repeated ``--direction N,S`` (hidden) reach the fields."""
+    flags = cli_bonds(own, flags)
+    if own.get("direction"):
+        if flags.get("directions") not in (None, "6"):
             from ..errors import InvalidInputError
 
-            raise InvalidInputError(f"--direction {v!r}: give 'NORMAL,SHEAR' axes, e.g. 2,0")
-        out.append((int(parts[0]), int(parts[1])))
-    return out
+            raise InvalidInputError("--direction: give --directions only (--direction is its old spelling)")
+        flags = {**flags, "directions": _direction_pairs(own["direction"])}
+    return flags
 
 
 def register(app: typer.Typer) -> None:
     """Add the ``shear`` command to ``app``."""
 
     @app.command()
+    @options_from("mechanics", "shear", aliases=NETWORK_ALIASES, notes=NETWORK_NOTES, prepare=_prepare)
     def shear(
         source: Path = typer.Argument(..., metavar="FILE", help="Packing file (gsd, xyz, lammps data, csv)."),
-        epsilon: float = typer.Option(0.01, "--epsilon", help="Bond pairs closer than (1+epsilon)(r_i+r_j)."),
-        normal_stiffness: float = typer.Option(100.0, "--kn", help="Normal contact stiffness (N/m)."),
-        shear_stiffness: float = typer.Option(10.0, "--ks", help="Shear contact stiffness (N/m)."),
-        stiffness: str = typer.Option("contact", "--stiffness", help="contact: --kn/--ks per contact; particle: "
-                                      "per ball, in series per contact (PFC 4, seed 003 Table 1: kn/2 for equal balls)."),
-        normal_strength: float = typer.Option(1e-4, "--normal-strength", help="Bond normal strength (N)."),
-        shear_strength: float = typer.Option(1e-6, "--shear-strength", help="Bond shear strength (N)."),
-        reference: str = typer.Option("stress-free", "--reference", help="stress-free or zero-gap."),
-        boundary: str = typer.Option("lees-edwards", "--boundary", help="lees-edwards or plates."),
-        direction: Optional[List[str]] = typer.Option(
-            None, "--direction", help="NORMAL,SHEAR axes (repeat); default all six."
-        ),
-        frequency: float = typer.Option(1.0, "--frequency", help="Drive frequency (Hz)."),
-        amplitude: float = typer.Option(1e-3, "--amplitude", help="Peak shear strain."),
-        cycles: int = typer.Option(10, "--cycles", help="Oscillation cycles per direction."),
-        steps_per_cycle: int = typer.Option(4000, "--steps-per-cycle", help="Time steps per cycle."),
-        samples_per_cycle: int = typer.Option(100, "--samples-per-cycle",
-                                              help="Stress samples per cycle (8 or more, at most --steps-per-cycle)."),
-        damping: float = typer.Option(0.9, "--damping", help="Local damping coefficient alpha."),
-        density: float = typer.Option(3690.0, "--density", help="Particle density before mass scaling."),
+        direction: Optional[List[str]] = typer.Option(None, "--direction", hidden=True,
+                                                      help="Old spelling: NORMAL,SHEAR axes (repeat)."),
         json_out: Optional[Path] = typer.Option(None, "--json", help="Write the result (with time series) as JSON."),
         plot: Optional[Path] = typer.Option(None, "--plot", help="Write the stress-strain plot here (.png, .pdf, .svg)."),
         trajectory: Optional[Path] = typer.Option(
             None, "--trajectory", help="Write GSD frames with contact forces (20 per cycle) here."
         ),
         progress: Optional[bool] = typer.Option(None, "--progress/--no-progress", help="Progress bar."),
-        radius: float = typer.Option(
-            0.25e-6, "--radius", help="Mean particle radius in metres the lengths are rescaled to (seed 003: "
-            "0.25 µm; stresses in Pa); 0 keeps the file's length unit."),
-        bonds: str = typer.Option("auto", "--bonds", help="auto (bonds stored in the file or made by its protocol, "
-                                  "else the epsilon rule), file (stored only) or distance (always epsilon)."),
         force: bool = typer.Option(False, "--force", help="Replace existing output files of another kind."),
+        options: dict = None,
     ):
-        """Storage and loss moduli G', G'' of the bonded pack by oscillatory shear (DEM)."""
+        """Storage and loss moduli G', G'' of the bonded pack by oscillatory shear (DEM).
+
+        The option flags are the keys of \\[analysis.shear] in a study (same defaults and units).
+        """
         from .._util import atomic_open, atomic_path, check_new_output, check_plot_path, file_kind
         from ..mechanics import ShearInterrupted, oscillatory_shear
+        from ..mechanics.stages import SHEAR_KEYS, _stiffnesses
         from ._network import network_from_file
 
         # every output path is checked before the computation
@@ -75,18 +76,20 @@ def register(app: typer.Typer) -> None:
             check_plot_path(plot)
         if trajectory is not None:
             check_new_output(trajectory, "GSD", inputs=(source,), force=force, option="--trajectory")
+        o = options
+        kn, ks = _stiffnesses(o)  # shear_stiffness unset: normal_stiffness / 10 (seed 003 Table 1)
+        strengths = {k: o[k] for k in ("normal_strength", "shear_strength", "reference") if k in o}
         pk, net, bonds_note, units_note = network_from_file(
-            source, bonds=bonds, epsilon=epsilon, radius=radius, normal_stiffness=normal_stiffness,
-            shear_stiffness=shear_stiffness, normal_strength=normal_strength, shear_strength=shear_strength,
-            reference=reference, stiffness=stiffness)
+            source, bonds=FILE_BONDS[o["bonds"]], epsilon=o["epsilon"], radius=o["radius"], normal_stiffness=kn,
+            shear_stiffness=ks, stiffness=o.get("stiffness", "contact"), **strengths)
         typer.echo(f"{source}: {units_note}; {bonds_note}")
+        kw = {k: o[k] for k in SHEAR_KEYS if k in o}
+        d = o.get("directions", 6)
+        kw["directions"] = d if d == 6 else [tuple(p) for p in d]
+        boundary = kw.get("boundary", "lees-edwards")
         interrupted = False
         try:
-            res = oscillatory_shear(net, frequency=frequency, amplitude=amplitude, cycles=cycles,
-                                    directions=_directions(direction), boundary=boundary,
-                                    steps_per_cycle=steps_per_cycle, samples_per_cycle=samples_per_cycle,
-                                    damping=damping, density=density,
-                                    trajectory=trajectory, progress=progress)
+            res = oscillatory_shear(net, trajectory=trajectory, progress=progress, **kw)
         except ShearInterrupted as exc:
             res = exc.result
             interrupted = True

@@ -24,7 +24,7 @@ def _bond_fields():
         epsilon=option(0.01, v.non_negative, "bond pairs closer than (1 + epsilon)(r_i + r_j) (seed 003: 0.01)"),
         normal_stiffness=option(100.0, v.positive, "k_n per contact, or per particle with stiffness = \"particle\" "
                                 "(seed 003 Table 1: 100 N/m)", unit="N/m"),
-        shear_stiffness=option(None, v.positive, "k_s per contact (default k_n / 10, seed 003 Table 1)", unit="N/m"),
+        shear_stiffness=option(None, v.positive, "k_s per contact (unset: k_n / 10, seed 003 Table 1)", unit="N/m"),
         stiffness=option("contact", v.choice("contact", "particle"),
                          "meaning of normal_stiffness/shear_stiffness: per contact, or per particle combined in "
                          "series per contact (k_a k_b / (k_a + k_b): PFC 4, seed 003 Table 1)", fill=False),
@@ -94,6 +94,10 @@ def _directions(x):
 _directions.describe = '6, "all" or an array of [normal, shear] axis pairs'
 
 
+# The defaults of the DEM test below are those of polypack.mechanics.oscillatory_shear and
+# BondNetwork (seed 003 Table 1 and §2.4), declared here for the docs, the CLI and the
+# signature test (tests/test_declarations.py); fill=False keeps them out of a resolved study
+# (studies written before they were declared keep their fingerprint).
 @dataclass(frozen=True)
 class ShearOptions:
     bonds: str = _B["bonds"]
@@ -101,29 +105,40 @@ class ShearOptions:
     normal_stiffness: float = _B["normal_stiffness"]
     shear_stiffness: float = _B["shear_stiffness"]
     stiffness: str = _B["stiffness"]
-    normal_strength: float = option(None, v.positive, "bond normal strength F_nB (1e-4 N, seed 003 Table 1)", unit="N")
-    shear_strength: float = option(None, v.positive, "bond shear strength F_sB (1e-6 N)", unit="N")
-    reference: str = option(None, v.choice("stress-free", "zero-gap"), "bond rest length: current ('stress-free') "
-                                                                         "or r_i + r_j ('zero-gap', relaxed first)")
+    normal_strength: float = option(1e-4, v.positive, "bond normal strength F_nB (seed 003 Table 1)", unit="N",
+                                    fill=False)
+    shear_strength: float = option(1e-6, v.positive, "bond shear strength F_sB (seed 003 Table 1)", unit="N",
+                                   fill=False)
+    reference: str = option("stress-free", v.choice("stress-free", "zero-gap"),
+                            "bond rest length: current ('stress-free') or r_i + r_j ('zero-gap', relaxed first)",
+                            fill=False)
     radius: float = option(0.25e-6, v.non_negative, "mean radius the lengths are rescaled to, m (stresses in Pa); "
                                                     "0 keeps the pack's length unit", unit="m")
-    boundary: str = option(None, v.choice("lees-edwards", "plates"), "Lees-Edwards cell or the seed's plates")
-    directions: list = option(None, _directions, "6 (the seed's six) or [[normal, shear], ...] axis pairs")
-    frequency: float = option(None, v.positive, "drive frequency f (1 Hz)", unit="Hz")
-    amplitude: float = option(None, v.positive, "peak shear strain (1e-3: 0.1 % of the box)")
-    cycles: int = option(None, v.int_min(1), "oscillation cycles per direction (10)")
-    ramp_cycles: int = option(None, v.int_min(0), "cycles of the amplitude ramp (default: all)")
-    discard_cycles: int = option(None, v.int_min(0), "cycles left out of the fit (1)")
-    steps_per_cycle: int = option(None, v.int_min(10), "time steps per cycle (4000; the masses are scaled to it)")
-    samples_per_cycle: int = option(None, v.int_min(4), "stress samples per cycle (100)")
-    safety: float = option(None, v.fraction_closed, "time step over the critical step when scaling masses (0.5)")
-    mass_scale: float = option(None, v.positive, "fixed density scale factor (default: chosen from steps_per_cycle)")
-    damping: float = option(None, v.fraction_closed, "local damping coefficient alpha (0.9)")
-    friction: float = option(None, v.non_negative, "friction coefficient of unbonded contacts (0)")
-    density: float = option(None, v.positive, "particle density before mass scaling (3690 kg/m³)", unit="kg/m³")
-    relax_first: bool = option(None, v.boolean, "relax before shearing (default: when the network is prestressed)")
-    layers: int = option(None, v.int_min(1), "plate thickness in mean diameters (plates; 3)")
-    measurement_layers: int = option(None, v.int_min(1), "stress-measurement slabs across the sample (plates; 5)")
+    boundary: str = option("lees-edwards", v.choice("lees-edwards", "plates"), "Lees-Edwards cell or the seed's plates",
+                           fill=False)
+    directions: list = option(6, _directions, "6 (the seed's six) or [[normal, shear], ...] axis pairs", fill=False)
+    frequency: float = option(1.0, v.positive, "drive frequency f", unit="Hz", fill=False)
+    amplitude: float = option(1e-3, v.positive, "peak shear strain (1e-3: 0.1 % of the box)", fill=False)
+    cycles: int = option(10, v.int_min(1), "oscillation cycles per direction", fill=False)
+    ramp_cycles: int = option(None, v.int_min(0), "cycles of the amplitude ramp (unset: all cycles, the seed's "
+                                                  "linearly increasing deflection)")
+    discard_cycles: int = option(1, v.int_min(0), "cycles left out of the fit", fill=False)
+    steps_per_cycle: int = option(4000, v.int_min(10), "time steps per cycle (the masses are scaled to it)",
+                                  fill=False)
+    samples_per_cycle: int = option(100, v.int_min(4), "stress samples per cycle (at most steps_per_cycle)",
+                                    fill=False)
+    safety: float = option(0.5, v.fraction_closed, "time step over the critical step when scaling masses",
+                           fill=False)
+    mass_scale: float = option(None, v.positive, "fixed density scale factor (unset: chosen so that the time "
+                                                 "step 1/(frequency steps_per_cycle) is safety times the critical step)")
+    damping: float = option(0.9, v.fraction_closed, "local damping coefficient alpha", fill=False)
+    friction: float = option(0.0, v.non_negative, "friction coefficient of unbonded contacts", fill=False)
+    density: float = option(3690.0, v.positive, "particle density before mass scaling", unit="kg/m³", fill=False)
+    relax_first: bool = option(None, v.boolean, "relax before shearing (unset: when the mean unbalanced force "
+                                                "exceeds that of a bond stretched by 1e-6 of its length: prestressed)")
+    layers: int = option(3, v.int_min(1), "plate thickness in mean diameters (plates)", fill=False)
+    measurement_layers: int = option(5, v.int_min(1), "stress-measurement slabs across the sample (plates)",
+                                     fill=False)
 
 
 #: Summary scalars of ``[analysis.shear]`` (``shear.<key>``; per direction ``shear.direction.<g>-<a>.<key>``).
