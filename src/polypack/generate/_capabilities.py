@@ -180,6 +180,18 @@ class VEMOptions:
     stiffness: str = option("contact", v.choice("contact", "particle"),
                             "meaning of the four stiffnesses: per contact, or per particle combined in series per "
                             "contact (k_a k_b / (k_a + k_b): PFC 4, seed 003 Table 1)", fill=False)
+    restructure: str = option("none", v.choice("none", "coagulation"),
+                              "after the voids go: none (the repulsive VEM) or coagulation of the structure by "
+                              "Brownian dynamics with DLVO forces (docs/vem.md)", fill=False)
+    restructure_time: float = option(1.0, v.positive, "coagulation: longest duration, in Brownian times a²/D0",
+                                     unit="a²/D0", fill=False)
+    restructure_window: float = option(0.25, v.positive, "coagulation: stops once the coordination changed by < 1 % "
+                                       "over this window", unit="a²/D0", fill=False)
+    restructure_potential: float = option(0.0, v.number, "coagulation: surface potential Ψ0 of the DLVO forces",
+                                          unit="V", fill=False)
+    restructure_bonds: str = option("tangential", v.choice("tangential", "flexible"),
+                                    "coagulation: bond model (tangential: sliding and rolling resisted, rolling "
+                                    "yields; flexible: free rolling)", fill=False)
 
 
 def run_vem(sizes, pr: dict, seed, monitor=None):

@@ -93,7 +93,7 @@ from ..errors import InfeasibleError, InvalidInputError, OverlapError
 from ..packing import Packing
 from ._capabilities import VEM_MAX_VOLUME_FRACTION, VEMOptions
 
-__all__ = ["vem", "OVERLAP_TOLERANCE", "MAX_VOLUME_FRACTION", "VEM_DEFAULTS", "STRUCTURE_CONTACTS"]
+__all__ = ["vem", "OVERLAP_TOLERANCE", "MAX_VOLUME_FRACTION", "VEM_DEFAULTS", "STRUCTURE_CONTACTS", "RESTRUCTURE"]
 
 #: Largest relative overlap ``1 - d_ij / (r_i + r_j)`` tolerated between structure spheres
 #: of a returned pack (the final projections remove every overlap; this bounds round-off).
@@ -112,6 +112,15 @@ UNLOADED = 1e-5
 #: (linear repulsion only, contacts open freely) or ``"sticky"`` (a structure pair that
 #: touches is bonded for good, the bond carrying tension and shear).
 STRUCTURE_CONTACTS = ("frictionless", "sticky")
+
+#: Restructuring after the voids go: ``"none"`` (the repulsive VEM) or ``"coagulation"``
+#: (Brownian dynamics with DLVO forces from the VEM structure, :func:`_coagulate`).
+RESTRUCTURE = ("none", "coagulation")
+#: Coagulation stop rule: the bond coordination changed by at most this fraction over
+#: ``restructure_window`` (the rule of :func:`polypack.brownian`, on a shorter window).
+RESTRUCTURE_TOLERANCE = 0.01
+#: Coagulation: simulated time between two records of the coordination (a²/D0).
+RESTRUCTURE_RECORD = 0.01
 
 #: Defaults of :func:`vem`: those declared by the options dataclass
 #: :class:`polypack.generate._capabilities.VEMOptions` (the one declaration of the API, the
@@ -383,6 +392,51 @@ class _Assembly:
         self.rebuild()  # structure keys do not change (fixed n_key): shear histories and bonds carry over
 
 
+def _coagulate(wpos, r_red, box, o, seed):
+    """Coagulation of a VEM structure (``restructure = "coagulation"``).
+
+    Brownian dynamics with DLVO forces (:class:`polypack.generate.brownian.BrownianSimulation`,
+    DLVO parameters :data:`polypack.generate.dlvo.DLVO_DEFAULTS`: r0 = 0.25 µm, the seed's
+    scale) from the hard structure ``wpos`` (reduced units, radius ``r_red``): touching pairs
+    bond at the first step, near pairs close under the van der Waals attraction, free spheres
+    diffuse and attach.  The coordination ``2 M / N`` of the bonds is recorded every
+    :data:`RESTRUCTURE_RECORD` a²/D0; the run stops when it changed by at most
+    :data:`RESTRUCTURE_TOLERANCE` (relative) over ``restructure_window``, or at
+    ``restructure_time``.  The bond constraints are then relaxed (noise-free projections).
+
+    Returns ``(positions in reduced units, record)``.
+    """
+    from .brownian import BrownianSimulation
+    from .dlvo import dlvo_parameters
+
+    p = dlvo_parameters(o["restructure_potential"])
+    a, tau = p.radius, p.brownian_time
+    scale = a / r_red
+    sim = BrownianSimulation(np.asarray(wpos) * scale, np.asarray(box) * scale, p, seed=seed,
+                             bonds=o["restructure_bonds"])
+    per = max(1, int(round(RESTRUCTURE_RECORD * tau / sim.time_step)))
+    t_end, window = o["restructure_time"], o["restructure_window"]
+    nwin = max(1, int(round(window / (per * sim.time_step / tau))))
+    times, coord = [0.0], [0.0]
+    reason = f"restructure_time = {t_end:g} a²/D0 reached"
+    while sim.time / tau < t_end * (1.0 - 1e-12):
+        left = int(math.ceil((t_end * tau - sim.time) / sim.time_step - 1e-9))
+        sim.run(max(1, min(per, left)))
+        times.append(sim.time / tau)
+        coord.append(sim.coordination)
+        m = len(coord) - 1
+        if m >= nwin and coord[m] > 0 and abs(coord[m] - coord[m - nwin]) <= RESTRUCTURE_TOLERANCE * coord[m]:
+            reason = (f"stable: bond coordination changed by <= {RESTRUCTURE_TOLERANCE:g} over "
+                      f"{window:g} a²/D0")
+            break
+    sim.relax_constraints()
+    rec = {"time": float(sim.time / tau), "steps": int(sim.steps), "time_step": float(sim.time_step / tau),
+           "stop_reason": reason, "bond_coordination": float(sim.coordination), "n_bonds": int(sim.n_bonds),
+           "dlvo": p.to_dict(), "bonds": o["restructure_bonds"],
+           "series": {"time": [float(x) for x in times], "coordination": [float(x) for x in coord]}}
+    return sim.positions / scale, rec
+
+
 def _initial_structure(radii, box, seed):
     """A hard-sphere fluid of the structure spheres at Φ (Lubachevsky-Stillinger growth)."""
     from .lubachevsky import pack
@@ -440,6 +494,11 @@ def vem(
     final_relaxation=VEM_DEFAULTS["final_relaxation"],
     structure_contacts=VEM_DEFAULTS["structure_contacts"],
     stiffness=VEM_DEFAULTS["stiffness"],
+    restructure=VEM_DEFAULTS["restructure"],
+    restructure_time=VEM_DEFAULTS["restructure_time"],
+    restructure_window=VEM_DEFAULTS["restructure_window"],
+    restructure_potential=VEM_DEFAULTS["restructure_potential"],
+    restructure_bonds=VEM_DEFAULTS["restructure_bonds"],
     progress=None,
 ) -> Packing:
     """Heterogeneous pack by the void expansion method (VEM).
@@ -504,6 +563,25 @@ def vem(
         per contact, ``k = k_1 k_2 / (k_1 + k_2)`` (the PFC 4 linear model of the seed,
         Table 1 of 003_873b69fc71c74cf6.txt): structure-structure ``kn / 2``,
         structure-void ``kn kn,V / (kn + kn,V)``, void-void ``kn,V / 2`` (shear alike).
+    restructure : {"none", "coagulation"}
+        After the voids are deleted and the overlaps removed: ``"none"`` (default, the
+        repulsive VEM) or ``"coagulation"``: the structure coagulates by the Brownian
+        dynamics of :class:`polypack.generate.brownian.BrownianSimulation` (DLVO forces of
+        :mod:`polypack.generate.dlvo` at the seed's scale r0 = 0.25 µm, surface potential
+        ``restructure_potential``, bond model ``restructure_bonds``) until the bond
+        coordination changes by less than 1 % over ``restructure_window`` or
+        ``restructure_time`` is used up; then the overlaps are removed again.  Equal
+        spheres only.  The seed's VEM mimics coagulation with swelling polymer particles
+        (§2.2 of 003_873b69fc71c74cf6.txt); ``docs/vem.md`` compares both with Table 2.
+    restructure_time, restructure_window : float
+        Longest coagulation and its stability window, in Brownian times a²/D0.
+    restructure_potential : float
+        Surface potential Ψ0 (V) of the coagulation's DLVO forces (0: van der Waals only).
+    restructure_bonds : {"tangential", "flexible"}
+        Bond model of the coagulation (:func:`polypack.brownian`): ``"tangential"``
+        (default; bonds resist sliding and rolling, rolling yields at a critical moment)
+        or ``"flexible"`` (central bonds, free rolling: the structure keeps densifying, so
+        the run lasts ``restructure_time``).
     progress : bool, optional
         Progress bar (void diameter, coordination, unbalanced-force ratio); default when
         stderr is a terminal.
@@ -543,7 +621,16 @@ def vem(
         void_normal_stiffness=void_normal_stiffness, void_shear_stiffness=void_shear_stiffness, friction=friction,
         damping=damping, ratio_tolerance=ratio_tolerance, jam_overlap=jam_overlap, check_every=check_every,
         stage_steps=stage_steps, max_stages=max_stages, final_relaxation=final_relaxation,
-        structure_contacts=structure_contacts, stiffness=stiffness))
+        structure_contacts=structure_contacts, stiffness=stiffness, restructure=restructure,
+        restructure_time=restructure_time, restructure_window=restructure_window,
+        restructure_potential=restructure_potential, restructure_bonds=restructure_bonds))
+    if o["restructure"] == "none":
+        for key in ("restructure_time", "restructure_window", "restructure_potential", "restructure_bonds"):
+            if o[key] != VEM_DEFAULTS[key]:
+                raise InvalidInputError(f"{key}={o[key]!r}: only used with restructure = 'coagulation'")
+    elif not np.all(radii == radii[0]):
+        raise InvalidInputError(f"restructure='coagulation': needs equal spheres (the Brownian engine is "
+                                f"monodisperse); radii range {radii.min():g} ... {radii.max():g}")
     phi, vr = o["volume_fraction"], o["void_ratio"]
     n_void = int(round(vr * ns))
     if n_void < 1:
@@ -632,6 +719,12 @@ def vem(
                 steps_total += fsteps
             _interrupt.check("vem interrupted in the final relaxation")
             wpos, status, sweeps, worst = _separate(asm.pos, red, box, ns, skin)
+            coag = None
+            if o["restructure"] == "coagulation":
+                wpos, coag = _coagulate(wpos, float(red[0]), box, o, ss.spawn(1)[0])
+                _interrupt.check("vem interrupted in the coagulation")
+                wpos, status, s2, _ = _separate(wpos, red, box, ns, skin)
+                sweeps += s2
         finally:
             bar.close()
     wpos = np.mod(wpos, box)
@@ -655,6 +748,8 @@ def vem(
         "wall_time": wall,
         "series": series,
     }
+    if coag is not None:
+        run["restructure_record"] = coag
     meta = {"generator": "vem", "seed": seed_record(ss), "vem": _record(o, ns, n_void, r0, run)}
     out = Packing(wpos * scale, radii, box * scale, species=species, meta=meta)
     gap = out.min_gap()
