@@ -206,6 +206,7 @@ def discretize(model, n_classes=10, spacing="geometric", min_per_class=10, min_t
         ``species`` = class index (0 = finest class; mode index for ``"modes"``);
         ``radii = d / 2``; the report holds the classes, counts, descriptors, ``Cr`` and the seed.
     """
+    from .descriptors import with_descriptors
     from .sizeset import SizeSet
 
     if method not in ("random", "quantiles"):
@@ -243,4 +244,5 @@ def discretize(model, n_classes=10, spacing="geometric", min_per_class=10, min_t
               "classes": cc.to_dict()}
     if method == "random":
         report["seed"] = seed_record(ss)
-    return SizeSet.from_diameters(np.concatenate(ds), np.concatenate(sp), report=report, model=model, dim=dim)
+    return with_descriptors(SizeSet.from_diameters(np.concatenate(ds), np.concatenate(sp), report=report, model=model,
+                                                   dim=dim), model)

@@ -8,19 +8,22 @@ import numpy as np
 
 from ..errors import InvalidInputError
 
-__all__ = ["hazen", "regression_coefficient", "moment", "polydispersity", "skewness", "describe"]
+__all__ = ["hazen", "regression_coefficient", "moment", "polydispersity", "skewness", "describe", "with_descriptors"]
+
+#: What a size-distribution model offers the descriptors (duck-typed: this module does not import
+#: polypack.psd.models, which calls it to describe the sets it draws).
+_MODEL_API = ("quantile", "grading", "moment", "d_min", "d_max")
 
 
 def _kind(obj):
-    from .models import SizeDistribution
     from .sizeset import SizeSet
 
-    if isinstance(obj, SizeDistribution):
-        return "model"
     if isinstance(obj, SizeSet):
         return "set"
     if hasattr(obj, "radii"):
         return "radii"
+    if all(hasattr(obj, a) for a in _MODEL_API):
+        return "model"
     raise InvalidInputError(f"{type(obj).__name__}: expected a size-distribution model or a SizeSet")
 
 
@@ -132,3 +135,20 @@ def describe(obj) -> dict:
     out["polydispersity"] = polydispersity(obj)
     out["skewness"] = skewness(obj)
     return out
+
+
+def with_descriptors(sizes, model=None):
+    """Add the descriptors of a generated set to its report and return it.
+
+    ``sizes.report["descriptors"]`` = :func:`describe` of the set, with ``Cr`` (Eq. (21) of
+    001_ad5bae0acea940c4.txt, :func:`regression_coefficient`) against ``model`` when the model
+    has no atoms, and ``model`` = :func:`describe` of the model. A report that already holds
+    descriptors keeps them. Used by the generators (``model.sample``, ``discretize``): the
+    :class:`~polypack.psd.SizeSet` itself is data only.
+    """
+    sizes.report.setdefault("descriptors", describe(sizes))
+    if model is not None:
+        if not model.has_atoms:
+            sizes.report["descriptors"]["Cr"] = regression_coefficient(sizes, model)
+        sizes.report["descriptors"]["model"] = describe(model)
+    return sizes

@@ -346,6 +346,7 @@ class SizeDistribution:
 
         Radii are ``d / 2``. The seed is recorded in ``report["seed"]``.
         """
+        from .descriptors import with_descriptors
         from .sizeset import SizeSet
 
         if method == "random" and seed is None:
@@ -354,7 +355,8 @@ class SizeDistribution:
         report = {"generator": "sample", "method": method, "n": int(n), "model": self.params()}
         if method == "random":
             report["seed"] = seed_record(seed)
-        return SizeSet.from_diameters(d, np.zeros(len(d), np.int64), report=report, model=self, dim=self.dim)
+        return with_descriptors(SizeSet.from_diameters(d, np.zeros(len(d), np.int64), report=report, model=self,
+                                                       dim=self.dim), self)
 
 
 def _fresh_seed():
@@ -905,6 +907,7 @@ class Mixture(SizeDistribution):
 
     def sample(self, n=2000, seed=None, method="random"):
         """A :class:`SizeSet` with exact mode counts (:meth:`mode_counts`); species = mode index."""
+        from .descriptors import with_descriptors
         from .sizeset import SizeSet
 
         seed = np.random.SeedSequence() if (seed is None and method == "random") else seed
@@ -913,7 +916,7 @@ class Mixture(SizeDistribution):
                   "mode_counts": self.mode_counts(n).tolist()}
         if seed is not None:
             report["seed"] = seed_record(seed)
-        return SizeSet.from_diameters(d, sp, report=report, model=self, dim=self.dim)
+        return with_descriptors(SizeSet.from_diameters(d, sp, report=report, model=self, dim=self.dim), self)
 
 
 class Bimodal(Mixture):

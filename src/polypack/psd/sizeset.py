@@ -72,18 +72,16 @@ class SizeSet:
 
     @classmethod
     def from_diameters(cls, diameters, species=None, report=None, model=None, dim=3):
-        """Build from diameters (radii = d / 2) and fill the report with the descriptors."""
+        """Build from diameters (radii = d / 2), remembering the ``model`` they were drawn from.
+
+        The set is data only: its descriptors (Hazen, moments, ``Cr`` against the model) are
+        added to ``report["descriptors"]`` by the generators (``model.sample``,
+        :func:`~polypack.psd.discretize`) through
+        :func:`polypack.psd.descriptors.with_descriptors`, or computed on demand with
+        :func:`polypack.psd.describe`.
+        """
         out = cls(0.5 * np.asarray(diameters, float), species, report, dim=dim)
         out._model = model
-        from .descriptors import describe
-
-        out.report.setdefault("descriptors", describe(out))
-        if model is not None:
-            from .descriptors import regression_coefficient
-
-            if not model.has_atoms:
-                out.report["descriptors"]["Cr"] = regression_coefficient(out, model)
-            out.report["descriptors"]["model"] = describe(model)
         return out
 
     # -- basic properties ------------------------------------------------------------------
@@ -211,15 +209,19 @@ class SizeSet:
             dim = int(report.pop("dim", 3))
         return cls(radii, species, report, dim=dim)
 
-    # -- plots -----------------------------------------------------------------------------
+    # -- plots ---------------------------------------------------------------------------
+    # Thin conveniences: the figures are drawn by polypack.psd.plots (which calls SizeSet, not
+    # the reverse); they are found through the package's lazy exports, so this module imports
+    # no descriptor or plotting module (tests/test_layers.py::test_no_import_cycles).
     def plot_grading(self, model=None, ax=None, **kw):
-        """Grading curve of the set (steps) against ``model`` (line), Figs. 1 and 3 style."""
-        from .plots import plot_grading
+        """Grading curve of the set (steps) against ``model`` (line), Figs. 1 and 3 style:
+        :func:`polypack.psd.plot_grading` ``(model or self.model, self)``."""
+        from .. import psd
 
-        return plot_grading(model if model is not None else self._model, self, ax=ax, **kw)
+        return psd.plot_grading(model if model is not None else self._model, self, ax=ax, **kw)
 
     def plot_histogram(self, ax=None, **kw):
-        """Particle counts and volume fractions per species (class histogram)."""
-        from .plots import plot_class_histogram
+        """Particle counts and volume fractions per species: :func:`polypack.psd.plot_class_histogram`."""
+        from .. import psd
 
-        return plot_class_histogram(self, ax=ax, **kw)
+        return psd.plot_class_histogram(self, ax=ax, **kw)
