@@ -148,7 +148,7 @@ def test_near_floppy_nonaffine_fields_carry_the_relaxed_energy(vem_soft_1000):
 
 
 def test_elastic_tensor_raises_when_the_relaxation_does_not_converge(vem_soft, monkeypatch):
-    from polypack.mechanics import elastic as el
+    from polypack.mechanics import _elastic_solvers as el
 
     real = el._solve_cg
     monkeypatch.setattr(el, "_solve_cg", lambda *a, **kw: real(*a, **{**kw, "maxiter": 2}))
@@ -279,7 +279,7 @@ def test_positive_factor_retries_a_zero_pivot_with_a_larger_shift():
     # (MKL error -4): the Krylov preconditioner is then built with a 1000x larger shift
     import scipy.sparse as sp
 
-    from polypack.mechanics import elastic as el
+    from polypack.mechanics import _elastic_solvers as el
 
     shifts = []
 

@@ -119,7 +119,7 @@ def test_multigrid_solver_agrees_with_the_direct_one(jammed_net, monkeypatch, ro
     250-particle pack gets a real hierarchy (smoothing, restriction, prolongation); the tensor
     agrees with the sparse factorization to 1e-8 of its largest entry (CG to 1e-12 residual: a
     wrong cycle would either not converge, raising the residual, or not be symmetric, breaking CG)."""
-    from polypack.mechanics import elastic as el
+    from polypack.mechanics import _elastic_solvers as el
 
     monkeypatch.setattr(el, "_AMG_MAX_COARSE", 20)
     ed = elastic_tensor(jammed_net, rotations=rotations, solver="direct")
@@ -340,7 +340,7 @@ def loose_net():
 
 
 def _has_pardiso():
-    from polypack.mechanics import elastic as el
+    from polypack.mechanics import _elastic_solvers as el
 
     return el._pardiso_module() is not None
 
@@ -352,7 +352,7 @@ def test_pardiso_and_superlu_factorizations_agree(which, jammed_net, loose_net, 
     its largest entry (both refine to a 1e-12 residual; near-isostatic networks amplify it by
     ~1e3), the same floppy-mode count and the same minimum-norm non-affine field (1e-6 in
     norm: a field with a floppy component left is off by O(1))."""
-    from polypack.mechanics import elastic as el
+    from polypack.mechanics import _elastic_solvers as el
 
     if not _has_pardiso():
         pytest.skip("pypardiso (MKL) is not installed on this platform: only the SuperLU path exists")
@@ -380,7 +380,8 @@ def test_local_spin_modes_are_floppy(loose_net):
     """Every unpinned particle with two bonds spins freely about the line through its contact
     points: h v = 0 to round-off (1e-12 of the largest diagonal entry; a wrong lever arm or
     rotation scaling leaves O(k_n) forces), unit norm, and no more of them than floppy modes."""
-    from polypack.mechanics import elastic as el
+    from polypack.mechanics import _elastic_solvers as el
+    from polypack.mechanics import elastic
 
     net = loose_net
     act = ~net.rattlers
@@ -389,7 +390,7 @@ def test_local_spin_modes_are_floppy(loose_net):
     n, nd = int(act.sum()), 6
     bi, bj = idx[net.i[on]], idx[net.j[on]]
     ell = float(net.packing.radii[act].mean())
-    h, _, _ = el._hessian(n, bi, bj, net.normal_stiffness[on], net.shear_stiffness[on],
+    h, _, _ = elastic._hessian(n, bi, bj, net.normal_stiffness[on], net.shear_stiffness[on],
                           np.ascontiguousarray(net.normal[on]), np.ascontiguousarray(net.branch[on]),
                           np.ascontiguousarray(net.lever_arm_i[on]), np.ascontiguousarray(net.lever_arm_j[on]),
                           ell, True)
@@ -408,7 +409,7 @@ def test_local_spin_modes_are_floppy(loose_net):
 def test_auto_solver_rule(monkeypatch):
     """solver="auto": the factorization for small systems and (with PARDISO) for near-isostatic
     ones up to _PARDISO_MAX unknowns; CG / AMG-CG for well-connected or larger networks."""
-    from polypack.mechanics import elastic as el
+    from polypack.mechanics import _elastic_solvers as el
 
     monkeypatch.setattr(el, "_pardiso_module", lambda: object())
     assert el._auto_solver(5000, 6.6, 6) == "direct"
@@ -428,7 +429,7 @@ def test_moduli_do_not_depend_on_the_collective_floppy_projection(loose_net, mon
     """Above _FLOPPY_BASIS_MAX collective floppy modes the dense basis is skipped (it costs
     O(n k^2)); a floppy mode carries no stress, so the tensor and the floppy count must be the
     same with and without it, to the solve's 1e-8 of the largest entry."""
-    from polypack.mechanics import elastic as el
+    from polypack.mechanics import _elastic_solvers as el
 
     full = elastic_tensor(loose_net, solver="direct")
     monkeypatch.setattr(el, "_FLOPPY_BASIS_MAX", -1)

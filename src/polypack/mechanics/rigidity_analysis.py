@@ -21,7 +21,7 @@ Their number is counted exactly by Sylvester's law of inertia on one sparse fact
 of ``H - tau D`` (``tau = 1e-9``, ``D = diag H``: the count of
 :func:`~polypack.mechanics.elastic_tensor`), and random vectors of the null space are
 drawn by three sweeps of shifted inverse iteration with that factor
-(:func:`polypack.mechanics.elastic._null_samples`). A random combination of zero modes is
+(:func:`polypack.mechanics._elastic_solvers._null_samples`). A random combination of zero modes is
 non-zero on every degree of freedom any zero mode moves (with probability one), so a
 handful of samples decide, bond by bond, whether the two particles move as one rigid body
 in *every* zero mode: for a contact bond (its contact point is shared) that is equal
@@ -246,7 +246,7 @@ class Rigidity:
 
 
 def _backend():
-    from .elastic import _pardiso_module
+    from ._elastic_solvers import _pardiso_module
 
     return "pardiso" if _pardiso_module() is not None else "superlu"
 
@@ -262,7 +262,8 @@ def _nullspace(network, mask, *, rotations, central, samples):
     import scipy.sparse as sp
 
     from .._kernels import network as knl
-    from .elastic import _hessian, _null_samples, _Pardiso, _positive_factor, _SuperLU
+    from ._elastic_solvers import _null_samples, _Pardiso, _positive_factor, _SuperLU
+    from .elastic import _hessian
 
     n_all = network.n
     nd = 3 if (central or not rotations) else 6
