@@ -338,3 +338,25 @@ def test_report_uses_the_records_rigidity(tmp_path):
     data = json.loads((tmp_path / "out" / "heterogeneity" / "fit.json").read_text())
     assert [p["rigid"] for p in data["points"]] == [True, True, True, True, False]
     assert data["points"][0]["G_Pa"] == pytest.approx(2.2) and data["points"][4]["G_Pa"] == 0.0
+
+
+def test_sweep_writes_report_html_with_table2_beside_the_seed(tmp_path):
+    """run_sweep writes OUT/report.html: Table 2 of the seed side by side with this run's rows
+    (a, C, G'p, a / a_seed computed from the run's own fit.json), Figs. 2 and 6 inline."""
+    import re
+
+    study = _study(n=48, values=(0.5, 2.0))
+    study["study"]["realizations"] = 1
+    study["analysis"]["pores"]["n_points"] = 2000
+    out = tmp_path / "h"
+    run_sweep(study, out, progress=False, echo=lambda s: None)
+    page = (out / "report.html").read_text()
+    rows = json.loads((out / "heterogeneity" / "fit.json").read_text())["rows"]
+    assert "a (seed)" in page and "C (seed)" in page and "G′p MPa (seed)" in page
+    for r, (a_seed, c_seed, g_seed) in zip(rows, ((0.467, 4.69, "1.62 ± 0.19"), (0.392, 4.61, "1.17 ± 0.23"))):
+        cells = re.search(rf"<td>{re.escape(r['set'])}</td>(.*?)</tr>", page, re.S).group(1)
+        cells = re.findall(r"<td[^>]*>(.*?)</td>", cells)
+        assert cells[1].startswith(f"{r['a']:.3f}") and cells[2] == f"{a_seed:.3f}"
+        assert cells[3] == f"{r['a'] / a_seed:.3f}" and cells[5] == f"{c_seed:.2f}" and cells[7] == g_seed
+    assert page.count("data:image/png;base64") == 2  # Fig. 2 and Fig. 6
+    assert "seed Fig. 6" in page and "Eq. (7)" in page

@@ -614,6 +614,30 @@ def report(source, out=None, *, color=None, theory=False, compare=(), plots_dir=
 
 
 # ================================================================== [sweep] runs
+def _table2_side_by_side(rows):
+    """``(header, rows)`` of Table 2 of 003_873b69fc71c74cf6.txt beside the heterogeneity report's rows
+    (``fit.json``'s ``rows``): each set with the seed's row of its kind and value, and ``a / a_seed``."""
+    from ..studies.seed003_heterogeneity import _seed_row
+
+    def pm(x, e, digits):
+        x = float("nan") if x is None else float(x)
+        if e is None or not np.isfinite(float(e)):
+            return f"{x:.{digits}f}"
+        return f"{x:.{digits}f} ± {float(e):.{digits}f}"
+
+    header = ("set", "P", "a", "a (seed)", "a / a seed", "C", "C (seed)", "G′p MPa", "G′p MPa (seed)", "floppy")
+    out = []
+    for r in rows:
+        key = r.get("parameter")
+        s = _seed_row(r.get("kind"), key, r.get(key)) if key else None
+        g = "0 (floppy)" if r.get("floppy") == r.get("realizations") else pm(r.get("G_MPa"), r.get("G_sd_MPa"), 3)
+        out.append((r.get("set"), r.get("realizations"), pm(r.get("a"), r.get("a_se"), 3),
+                    f"{s[1]:.3f}" if s else "–", f"{r['a'] / s[1]:.3f}" if s and r.get("a") is not None else "–",
+                    pm(r.get("C"), r.get("C_se"), 2), f"{s[2]:.2f}" if s else "–", g,
+                    f"{s[3]:.2f} ± {s[4]:.2f}" if s else "–", f"{r.get('floppy', 0)} of {r.get('realizations')}"))
+    return header, out
+
+
 def sweep_report(out, entries, *, title=None):
     """Write ``OUT/report.html`` of a ``[sweep]`` run: one page linking the value runs' reports.
 
@@ -667,9 +691,10 @@ def sweep_report(out, entries, *, title=None):
     if (het / "fit.json").exists():
         fit = json.loads((het / "fit.json").read_text())
         parts.append("<h2>Stiffness against the degree of heterogeneity (seed 003)</h2>")
-        cols = [k for k in ("set", "void_ratio", "realizations", "a", "a_se", "b", "C", "C_se", "G_MPa", "G_sd_MPa")
-                if any(k in r for r in fit.get("rows", []))]
-        parts.append(_table(cols, [tuple(r.get(k) for k in cols) for r in fit.get("rows", [])]))
+        parts.append("<p>Table 2 of 003_873b69fc71c74cf6.txt side by side: this run (mean ± standard error over "
+                     "the realizations for a and C; G′p mean ± spread over shear planes and realizations) and the "
+                     "seed's row of the same protocol and value (N = 8000).</p>")
+        parts.append(_table(*_table2_side_by_side(fit.get("rows", []))))
         f = fit.get("fit")
         if f:
             parts.append(f"<p>Eq. (7) of 003_873b69fc71c74cf6.txt: a0 = {_num(f.get('a0'))} ± {_num(f.get('a0_err'))}, "
