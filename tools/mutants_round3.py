@@ -55,6 +55,7 @@ T_PROF = T_S3 + ("tests/test_deposit_roll.py", "tests/test_stages_protocols.py")
 T_RIG = T_S3 + ("tests/test_mechanics_rigidity.py",)
 T_REG = T_S3 + ("tests/test_registry.py", "tests/test_declarations.py", "tests/test_options.py")
 T_GEN = T_S3 + ("tests/test_declarations.py", "tests/test_registry.py")
+T_VEMR = ("tests/test_vem_restructure.py",)
 
 ROUND3 = [
     # ============================================================== issue 31: floppy / rigid, outputs
@@ -358,9 +359,46 @@ ROUND3 = [
            "growth_steps: int = option(10, v.int_min(1),",
            "growth_steps: int = option(1, v.int_min(1),",
            T_GEN + ("tests/test_pack_cli.py",), "wrong default (SCRM growth stages)"),
+    # ============================================================== issue 32: VEM coagulation, sweep report
+    Mutant("r3-32-coag-stop-sign", S + "generate/vem.py",
+           "abs(coord[m] - coord[m - nwin]) <= RESTRUCTURE_TOLERANCE * coord[m]",
+           "abs(coord[m] - coord[m - nwin]) >= RESTRUCTURE_TOLERANCE * coord[m]",
+           T_VEMR, "inverted comparison (stops while the coordination still changes)"),
+    Mutant("r3-32-coag-no-window", S + "generate/vem.py",
+           "if m >= nwin and coord[m] > 0",
+           "if m >= 1 and coord[m] > 0",
+           T_VEMR, "window ignored (compares with the first record)"),
+    Mutant("r3-32-coag-record-step", S + "generate/vem.py",
+           "per = max(1, int(round(RESTRUCTURE_RECORD * tau / sim.time_step)))",
+           "per = max(1, int(round(2 * RESTRUCTURE_RECORD * tau / sim.time_step)))",
+           T_VEMR, "wrong record interval (twice the declared one: the window spans twice the time)"),
+    Mutant("r3-32-coag-bond-model", S + "generate/vem.py",
+           "                             bonds=o[\"restructure_bonds\"])",
+           "                             bonds=\"flexible\")",
+           T_VEMR, "option dropped (the bond model ignored: always free rolling)"),
+    Mutant("r3-32-coag-no-final-separation", S + "generate/vem.py",
+           "                wpos, status, s2, _ = _separate(wpos, red, box, ns, skin)",
+           "                s2 = 0",
+           T_VEMR, "missing step (overlaps left by the coagulation not removed)"),
+    Mutant("r3-32-coag-potential", S + "generate/vem.py",
+           "p = dlvo_parameters(o[\"restructure_potential\"])",
+           "p = dlvo_parameters(0.015)",
+           T_VEMR, "option dropped (the surface potential ignored)"),
+    Mutant("r3-32-report-ratio", S + "report/build.py",
+           "f\"{r['a'] / s[1]:.3f}\"",
+           "f\"{s[1] / r['a']:.3f}\"",
+           T_SWEEP, "inverted ratio (a_seed / a in the a / a_seed column)"),
+    Mutant("r3-32-report-seed-c", S + "report/build.py",
+           "pm(r.get(\"C\"), r.get(\"C_se\"), 2), f\"{s[2]:.2f}\" if s else",
+           "pm(r.get(\"C\"), r.get(\"C_se\"), 2), f\"{s[3]:.2f}\" if s else",
+           T_SWEEP, "wrong column (the seed's G'p shown as its C)"),
+    Mutant("r3-32-sweep-no-html", S + "ensemble/sweep.py",
+           "    echo(f\"report: {sweep_report(out,",
+           "    0 and echo(f\"report: {sweep_report(out,",
+           T_SWEEP, "missing step (the sweep writes no report.html)"),
 ]
 
-ISSUES = ("30", "31", "34", "35", "36")
+ISSUES = ("30", "31", "32", "34", "35", "36")
 
 
 def issue_of(m) -> str:
