@@ -424,3 +424,29 @@ def test_declared_shear_defaults_are_the_functions_defaults():
                 checked += 1
     assert checked >= 20
     assert not specs["frequency"].fill and "frequency" not in registry.get("mechanics", "shear").resolve({})
+
+
+def test_every_optional_field_declares_its_unset_rule():
+    """An option whose default is None says what the run does without it (``option(..., unset=...)``): the
+    reference page shows `unset: RULE` as its default and the CLI help `unset: RULE`, so no runtime default
+    lives only in the code or in free text."""
+    from polypack._cli._generated import _help
+    from polypack._reference import default_text
+    from polypack.psd._capabilities import Generation
+
+    groups = [("psd", "[psd]", registry.option_specs(Generation))]
+    groups += [(kind, name, cap.specs()) for kind in registry.KINDS for name, cap in registry.capabilities(kind).items()]
+    missing, n = [], 0
+    for kind, name, specs in groups:
+        for k, s in specs.items():
+            if s.default is None and not s.required:
+                n += 1
+                if not s.unset.strip():
+                    missing.append(f"{kind}.{name}.{k}")
+                else:
+                    assert default_text(s) == f"unset: {s.unset}" and f"unset: {s.unset}" in _help(s).replace("\\[", "[")
+    assert not missing, f"optional fields without an unset rule: {missing}"
+    assert n >= 80
+    page = (__import__("pathlib").Path(__file__).resolve().parent.parent / "docs" / "reference.md").read_text()
+    assert "| `unset: k_n / 10 (seed 003 Table 1)` | N/m |" in page
+    assert "the run's own default" not in page

@@ -33,11 +33,12 @@ _KIND_TEXT = {
 
 
 def default_text(spec) -> str:
-    """The default as the page shows it: ``required``, ``unset`` (the run's own default) or the value."""
+    """The default as the page shows it: ``required``, ``unset: RULE`` (the declared rule of the run's own
+    default, :func:`polypack.registry.option` ``unset``) or the value."""
     if spec.required:
         return "required"
     if spec.default is None:
-        return "unset"
+        return f"unset: {spec.unset}" if spec.unset else "unset"
     return fmt(spec.default)
 
 
@@ -62,8 +63,9 @@ def reference_markdown() -> str:
              "Generated from the options dataclasses of `polypack.registry` by `python tools/gen_reference.py`; "
              "`tests/test_declarations.py` checks that this page is current. Do not edit by hand.", "",
              "Each option is declared once (type and bounds, default, unit, doc) and is the same key in the Python "
-             "API, the study file and the command line (flag = the key in kebab case). `unset`: the run applies "
-             "its own default, described in the option's text.", ""]
+             "API, the study file and the command line (flag = the key in kebab case). `unset: RULE`: the option is "
+             "left out of a resolved study and the run applies RULE (a value, or how it follows from the other "
+             "options).", ""]
     for kind in registry.KINDS:
         caps = registry.capabilities(kind)
         lines += [f"## {kind}", "", _KIND_TEXT[kind], ""]

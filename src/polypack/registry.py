@@ -89,7 +89,7 @@ REQUIRED = _Required()
 
 
 def option(default=None, check=None, doc: str = "", *, unit: str = "", study: bool = True, cli: bool = True,
-           api: str = "", fill: bool = True):
+           api: str = "", fill: bool = True, unset: str = ""):
     """A dataclass field for an options class, with its check and doc in the metadata.
 
     Parameters
@@ -115,9 +115,14 @@ def option(default=None, check=None, doc: str = "", *, unit: str = "", study: bo
         ``False`` keeps an unset option absent (the run function applies the same
         declared default), so the fingerprints of studies written before the default was
         declared here stay the same.
+    unset : str
+        With ``default=None``: what the run does when the option is not given, a value or a
+        rule in a few words (``"k_n / 10"``, ``"298.15 K"``, ``"all cycles"``); the reference
+        page shows it as the default (``unset: k_n / 10``) and the CLI help as
+        ``unset: k_n / 10``. Every optional field declares it (``tests/test_declarations.py``).
     """
     md = {"check": check, "doc": doc, "unit": unit, "study": study, "cli": cli, "required": default is REQUIRED,
-          "api": api, "fill": fill}
+          "api": api, "fill": fill, "unset": unset}
     if isinstance(default, (list, dict)):
         return field(default_factory=lambda d=default: copy.deepcopy(d), metadata=md)
     return field(default=None if default is REQUIRED else default, metadata=md)
@@ -267,6 +272,7 @@ class OptionSpec:
     cli: bool
     api: str = ""
     fill: bool = True
+    unset: str = ""  # default None: what the run does when the option is not given
 
     @property
     def describe(self) -> str:
@@ -289,7 +295,7 @@ def option_specs(options_cls) -> dict:
         required = md.get("required", default is REQUIRED)
         out[f.name] = OptionSpec(f.name, REQUIRED if required else default, md.get("check"), md.get("doc", ""),
                                  md.get("unit", ""), required, md.get("study", True), md.get("cli", True),
-                                 md.get("api", ""), md.get("fill", True))
+                                 md.get("api", ""), md.get("fill", True), md.get("unset", ""))
     return out
 
 

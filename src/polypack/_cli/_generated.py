@@ -86,8 +86,8 @@ def _help(spec) -> str:
     doc, describe = _esc(spec.doc), _esc(spec.describe)
     if spec.required:
         return f"{doc}{unit} ({describe}; required)."
-    if spec.default is None:  # the doc says what unset means ("unset: k_n / 10"), else the run decides
-        return f"{doc}{unit} ({describe}" + (")." if "unset" in spec.doc else "; unset: the run's own default).")
+    if spec.default is None:  # the declared rule of the run's own default (option(..., unset="k_n / 10"))
+        return f"{doc}{unit} ({describe}; unset: {_esc(spec.unset or 'the run' + chr(39) + 's own default')})."
     return f"{doc}{unit} ({describe})."  # typer shows [default: ...]
 
 

@@ -102,6 +102,8 @@ def register(app: typer.Typer) -> None:
     import inspect
 
     from .. import registry
+    from .._reference import default_text
+    from ._generated import _esc
 
     specs, owners = psd_options()
     models = registry.capabilities("psd")
@@ -114,8 +116,13 @@ def register(app: typer.Typer) -> None:
             aliases = sorted(a for c in models.values() for a in c.aliases)
             help_ = f"{', '.join(models)} (aliases {', '.join(aliases)}); default {spec.default}."
         else:
-            who = f" [{', '.join(owners[key])}]" if key in owners else ""
-            help_ = f"{spec.doc}{who} ({spec.describe})."
+            who = f" \\[{', '.join(owners[key])}]" if key in owners else ""
+            # the declared default (or unset rule) when every model that has the key agrees on it
+            texts = {default_text(models[o].specs()[key]) for o in owners[key]} if key in owners \
+                else {default_text(spec)}
+            t = texts.pop() if len(texts) == 1 else "required"
+            dflt = "" if t == "required" else f"; {t}" if t.startswith("unset") else f"; default {t}"
+            help_ = f"{_esc(spec.doc)}{who} ({_esc(spec.describe)}{_esc(dflt)})."
         if typ is bool:
             opt = typer.Option(None, f"{flag}/--no-{key.replace('_', '-')}", help=help_)
         else:
@@ -125,7 +132,7 @@ def register(app: typer.Typer) -> None:
     params += [
         inspect.Parameter("config", inspect.Parameter.KEYWORD_ONLY, annotation=Optional[Path],
                           default=typer.Option(None, "--config",
-                                               help="TOML file with a [psd] section (options override it).")),
+                                               help="TOML file with a \\[psd] section (options override it).")),
         inspect.Parameter("output", inspect.Parameter.KEYWORD_ONLY, annotation=Path,
                           default=typer.Option(Path("sizes.csv"), "--output", "-o",
                                                help="Size-set CSV (radius,diameter,species).")),

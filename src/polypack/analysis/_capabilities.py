@@ -17,43 +17,45 @@ from ..registry import Curves, Outputs, option, register
 class RDFOptions:
     r_max: float = option(3.0, v.positive, "largest distance, user length units")
     dr: float = option(0.02, v.positive, "bin width, user length units")
-    method: str = option(None, v.string, "estimator variant (see polypack.analysis.RDF)")
-    scale: str = option(None, v.string, "'distance' or 'contact' (reduced R = r/(a_k + a_m))")
+    method: str = option(None, v.string, "estimator variant (see polypack.analysis.RDF)", unset="'histogram'")
+    scale: str = option(None, v.string, "'distance' or 'contact' (reduced R = r/(a_k + a_m))", unset="'distance'")
 
 
 @dataclass(frozen=True)
 class KFunctionOptions:
     r_max: float = option(3.0, v.positive, "largest distance, user length units")
     dr: float = option(0.02, v.positive, "step, user length units")
-    scale: str = option(None, v.string, "'distance' or 'contact'")
+    scale: str = option(None, v.string, "'distance' or 'contact'", unset="'distance'")
 
 
 @dataclass(frozen=True)
 class WindowsOptions:
     window_radius: float = option(2.5, v.positive_or_list, "R_h in units of the reference sphere radius (or a list)")
-    reference: str = option(None, v.string, "which radius R_h is measured in (see polypack.analysis.WindowCounts)")
+    reference: str = option(None, v.string, "which radius R_h is measured in (see polypack.analysis.WindowCounts)",
+                            unset="'species' (the species' mean radius, the seed's convention)")
 
 
 @dataclass(frozen=True)
 class ContactsOptions:
     tolerance: float = option(0.01, v.non_negative, "relative gap below which two spheres touch")
-    min_contacts: int = option(None, v.int_min(0), "spheres with fewer contacts are rattlers")
+    min_contacts: int = option(None, v.int_min(0), "spheres with fewer contacts are rattlers", unset="4")
 
 
 @dataclass(frozen=True)
 class PoresOptions:
     n_points: int = option(100_000, v.int_min(100), "random test points")
-    n_grid: int = option(None, v.int_min(10), "points of the survival-function grid")
+    n_grid: int = option(None, v.int_min(10), "points of the survival-function grid", unset="200")
 
 
 @dataclass(frozen=True)
 class DepositOptions:
-    margin: float = option(None, v.non_negative, "distance excluded from floor, walls and free surface (8 d_max)")
-    contact_tolerance: float = option(None, v.non_negative, "relative gap below which two disks touch (1e-9)")
-    n_bins: int = option(None, v.int_min(1), "height bins of the profiles (40)")
+    margin: float = option(None, v.non_negative, "distance excluded from floor, walls and free surface",
+                           unset="4 d_max (eight largest radii)")
+    contact_tolerance: float = option(None, v.non_negative, "relative gap below which two disks touch", unset="1e-9")
+    n_bins: int = option(None, v.int_min(1), "height bins of the profiles", unset="40")
     small_split: float = option(None, v.positive, "3D: radius separating small from large spheres in the "
-                                "segregation profile (sqrt(r_min r_max))")
-    small_layers: int = option(None, v.int_min(2), "3D: window layers of the small-volume fraction profile (8)")
+                                "segregation profile (sqrt(r_min r_max))", unset="sqrt(r_min r_max)")
+    small_layers: int = option(None, v.int_min(2), "3D: window layers of the small-volume fraction profile", unset="8")
 
 
 def run_rdf(packing, opts, seed):

@@ -26,11 +26,13 @@ def _shake_fields():
     return dict(
         shake_radius=option(None, v.number_or_list(v.positive),
                             "shake-window radius R_sh in units of the sphere radius (one per species or one for all)",
-                            unit="a"),
+                            unit="a", unset="0.02 with shake_method 'paper' (the seed's optimum), else 0.05"),
         max_trials=option(None, v.number_or_list(v.int_min(1)),
-                          "trial moves per sphere and global shake N_sh (one per species or one for all)"),
-        shake_method=option(None, v.choice("paper", "collision", "metropolis"), "shaking variant", api="method"),
-        adaptive=option(None, v.boolean, "adapt R_sh towards a target acceptance"),
+                          "trial moves per sphere and global shake N_sh (one per species or one for all)",
+                          unset="150 with shake_method 'paper' (the seed's N_sh), else 1"),
+        shake_method=option(None, v.choice("paper", "collision", "metropolis"), "shaking variant", api="method",
+                            unset="'paper'"),
+        adaptive=option(None, v.boolean, "adapt R_sh towards a target acceptance", unset="false"),
     )
 
 
@@ -41,8 +43,9 @@ SHAKE_KEYWORDS = {k: (f.metadata["api"] or k) for k, f in _shake_fields().items(
 @dataclass(frozen=True)
 class CRMOptions:
     volume_fraction: float = option(0.6, v.volume_fraction, "target volume fraction c in (0, 1), or \"jammed\"")
-    growth_rate: float = option(None, v.positive, "radius growth rate of the Lubachevsky–Stillinger CRM")
-    max_seconds: float = option(None, v.positive, "wall-clock budget of the growth, s")
+    growth_rate: float = option(None, v.positive, "radius growth rate of the Lubachevsky–Stillinger CRM",
+                                unset="0.02 (mean diameter grows 2 % while a sphere at thermal speed moves one)")
+    max_seconds: float = option(None, v.positive, "wall-clock budget of the growth, s", unset="no wall-clock limit")
     global_shakes: int = option(0, v.int_min(0), "M global shakes of the finished pack (0: none)")
     shake_radius: float = _shake_fields()["shake_radius"]
     max_trials: int = _shake_fields()["max_trials"]
@@ -53,15 +56,16 @@ class CRMOptions:
 @dataclass(frozen=True)
 class SCRMOptions:
     volume_fraction: float = option(0.6, v.volume_fraction, "target volume fraction c in (0, 1)")
-    growth_rate: float = option(None, v.positive, "radius growth rate of the CRM stages")
+    growth_rate: float = option(None, v.positive, "radius growth rate of the CRM stages", unset="0.02, as crm")
     global_shakes: int = option(60, v.int_min(0), "M global shakes at the target")
     shake_radius: float = _shake_fields()["shake_radius"]
     max_trials: int = _shake_fields()["max_trials"]
     shake_method: str = _shake_fields()["shake_method"]
     adaptive: bool = _shake_fields()["adaptive"]
-    schedule: list = option(None, v.schedule, "increasing volume fractions of the growth stages (target appended)")
+    schedule: list = option(None, v.schedule, "increasing volume fractions of the growth stages (target appended)",
+                            unset="growth_steps fractions evenly spaced from start_fraction to the target")
     growth_steps: int = option(10, v.int_min(1), "number of growth stages from start_fraction", fill=False)
-    start_fraction: float = option(None, v.fraction_open, "first stage fraction (default 0.8 c)")
+    start_fraction: float = option(None, v.fraction_open, "first stage fraction", unset="0.8 c")
     stage_shakes: int = option(1, v.int_min(0), "global shakes after each growth stage", fill=False)
 
 
@@ -228,56 +232,71 @@ class BrownianOptions:
 
     volume_fraction: float = option(0.4, v.fraction_open, "volume fraction Φ in (0, 0.55] (seed 003: 0.4)")
     surface_potential: float = option(0.015, v.number, "surface potential Ψ0 (seed 003: 0, 0.012 ... 0.015)", unit="V")
-    radius: float = option(None, v.positive, "physical sphere radius a of the simulation (0.25 µm)", unit="m")
-    temperature: float = option(None, v.positive, "temperature", unit="K")
-    viscosity: float = option(None, v.positive, "solvent viscosity", unit="Pa s")
-    relative_permittivity: float = option(None, v.positive, "relative permittivity of the solvent")
-    hamaker: float = option(None, v.non_negative, "Hamaker constant", unit="J")
-    ionic_strength: float = option(None, v.positive, "ionic strength (or give debye_length, not both)", unit="mol/m³")
-    debye_length: float = option(None, v.positive, "Debye length 1/κ", unit="m")
-    minimum_separation: float = option(None, v.non_negative, "surface separation of the primary minimum", unit="m")
+    radius: float = option(None, v.positive, "physical sphere radius a of the simulation", unit="m",
+                           unset="0.25e-6 m (seed 003)")
+    temperature: float = option(None, v.positive, "temperature", unit="K", unset="293.15 K")
+    viscosity: float = option(None, v.positive, "solvent viscosity", unit="Pa s",
+                              unset="1.002e-3 Pa s (water at 20 °C)")
+    relative_permittivity: float = option(None, v.positive, "relative permittivity of the solvent",
+                                          unset="80.1 (water)")
+    hamaker: float = option(None, v.non_negative, "Hamaker constant", unit="J", unset="3.67e-20 J")
+    ionic_strength: float = option(None, v.positive, "ionic strength (or give debye_length, not both)", unit="mol/m³",
+                                   unset="0.9877 mol/m³, or from debye_length")
+    debye_length: float = option(None, v.positive, "Debye length 1/κ", unit="m",
+                                 unset="from ionic_strength, temperature and relative_permittivity")
+    minimum_separation: float = option(None, v.non_negative, "surface separation of the primary minimum", unit="m",
+                                       unset="0.4e-9 m")
     model: str = option("auto", v.choice("auto", "hhf", "lsa"), "double-layer model (auto: HHF for κa >= 5, else LSA)",
                         fill=False)
-    time_step: float = option(None, v.positive, "time step (default: rms step 0.2 Debye lengths)", unit="s")
+    time_step: float = option(None, v.positive, "time step (an rms step above 0.5 Debye lengths is refused)", unit="s",
+                              unset="an rms step of 0.2 Debye lengths per coordinate")
     bond_width: float = option(1e-9, v.positive, "capture separation and bond shell width", unit="m", fill=False)
-    cutoff: float = option(None, v.positive, "centre-distance cutoff of the DLVO force (2.5 a)", unit="m")
-    record_interval: float = option(None, v.positive, "simulated seconds between records (0.05 a²/D0)", unit="s")
-    stable_window: float = option(None, v.positive, "seconds over which the structure must be stable (2 a²/D0)",
-                                  unit="s")
+    cutoff: float = option(None, v.positive, "centre-distance cutoff of the DLVO force", unit="m", unset="2.5 a")
+    record_interval: float = option(None, v.positive, "simulated seconds between records", unit="s", unset="0.05 a²/D0")
+    stable_window: float = option(None, v.positive, "seconds over which the structure must be stable",
+                                  unit="s", unset="2 a²/D0")
     coordination_tolerance: float = option(0.01, v.positive, "relative change of coordination allowed over the window",
                                            fill=False)
     cluster_tolerance: float = option(0.005, v.positive, "change of the largest-cluster fraction allowed over the window",
                                       fill=False)
-    min_time: float = option(None, v.non_negative, "shortest simulated time (stable_window)", unit="s")
-    max_time: float = option(None, v.positive, "simulated-time budget (60 a²/D0)", unit="s")
-    max_steps: int = option(None, v.int_min(1), "step budget")
+    min_time: float = option(None, v.non_negative, "shortest simulated time", unit="s", unset="stable_window")
+    max_time: float = option(None, v.positive, "simulated-time budget", unit="s", unset="60 a²/D0")
+    max_steps: int = option(None, v.int_min(1), "step budget", unset="no limit up to max_time")
     bonds: str = option("flexible", v.choice("flexible", "rigid", "tangential"), fill=False, doc=
                         "bonded spheres roll freely (flexible, default), bonded clusters move as rigid bodies "
                         "(rigid), or bonds resist sliding and rolling elastically (tangential)")
-    sliding_stiffness: float = option(None, v.non_negative, "tangential bonds: sliding spring stiffness", unit="N/m")
-    rolling_stiffness: float = option(None, v.non_negative, "tangential bonds: rolling stiffness", unit="J")
+    sliding_stiffness: float = option(None, v.non_negative, "tangential bonds: sliding spring stiffness", unit="N/m",
+                                      unset="the stiffest the time step integrates accurately "
+                                            "(TANGENTIAL_STEP_STIFFNESS / (3.5 Δt D0/a²) kT/a²)")
+    rolling_stiffness: float = option(None, v.non_negative, "tangential bonds: rolling stiffness", unit="J",
+                                      unset="4 k_s a² (sliding and rolling around a partner cost the same)")
     rolling_moment: float = option(None, v.positive_or_inf, "tangential bonds: critical rolling moment (inf: no yield)",
-                                   unit="N m")
+                                   unit="N m",
+                                   unset="a F_adh / 100 (Heim et al. 1999), F_adh the van der Waals force at "
+                                         "minimum_separation")
     hydrodynamics: str = option("free", v.choice("free", "lubrication"), fill=False, doc=
                                 "pair mobility: free draining (default, the seed's model) or with the Honig et al. "
                                 "(1971) lubrication correction of the relative normal motion of close pairs")
-    lubrication_range: float = option(None, v.positive, "lubrication: gap beyond which pairs are free draining, m "
-                                      "(cutoff - 2a)", unit="m")
+    lubrication_range: float = option(None, v.positive, "lubrication: gap beyond which pairs are free draining", unit="m",
+                                      unset="cutoff - 2a (its maximum)")
 
 
 @dataclass(frozen=True)
 class DepositOptions:
     """``[protocol] kind = "deposit"``: the options of :func:`polypack.deposit` (disks for ``[psd] dim = 2``, spheres for 3)."""
 
-    width: float = option(None, v.positive, "box width W, in 3D the side of the square footprint (default: a roughly square/cubic deposit)")
+    width: float = option(None, v.positive, "box width W, in 3D the side of the square footprint",
+                          unset="sqrt(sum of disk areas / 0.82) in 2D, (sum of sphere volumes / 0.6)^(1/3) in 3D, at "
+                                "least 4.5 d_max (periodic) or 1.5 d_max (walls)")
     boundary: str = option("periodic", v.choice("periodic", "walls"), "x axis periodic or side walls")
     order: str = option("random", v.choice("random", "given"), "deposition order: random (from the seed) or as sized")
-    tolerance: float = option(None, v.positive, "relative tolerance of contacts and ties (<= 1e-3)")
+    tolerance: float = option(None, v.positive, "relative tolerance of contacts and ties (<= 1e-3)", unset="1e-10")
     floor_rule: str = option(None, v.choice("left", "centred"),
-                             "2D bare floor: midpoint (centred, the default, as LMGC90) or leftmost point (left) of the leftmost bare stretch")
+                             "2D bare floor: midpoint (centred, as LMGC90) or leftmost point (left) of the leftmost bare stretch",
+                             unset="'centred'")
     rule: str = option(None, v.choice("surface", "roll"),
-                       "3D: lowest stable surface pocket (surface, the default) or drop-and-roll (roll, Visscher & "
-                       "Bolsterli 1972: small spheres enter the pores; periodic only)")
+                       "3D: lowest stable surface pocket (surface) or drop-and-roll (roll, Visscher & "
+                       "Bolsterli 1972: small spheres enter the pores; periodic only)", unset="'surface'")
 
 
 _P = "polypack.generate.protocols:"

@@ -24,7 +24,7 @@ def _bond_fields():
         epsilon=option(0.01, v.non_negative, "bond pairs closer than (1 + epsilon)(r_i + r_j) (seed 003: 0.01)"),
         normal_stiffness=option(100.0, v.positive, "k_n per contact, or per particle with stiffness = \"particle\" "
                                 "(seed 003 Table 1: 100 N/m)", unit="N/m"),
-        shear_stiffness=option(None, v.positive, "k_s per contact (unset: k_n / 10, seed 003 Table 1)", unit="N/m"),
+        shear_stiffness=option(None, v.positive, "k_s per contact", unit="N/m", unset="k_n / 10 (seed 003 Table 1)"),
         stiffness=option("contact", v.choice("contact", "particle"),
                          "meaning of normal_stiffness/shear_stiffness: per contact, or per particle combined in "
                          "series per contact (k_a k_b / (k_a + k_b): PFC 4, seed 003 Table 1)", fill=False),
@@ -120,8 +120,8 @@ class ShearOptions:
     frequency: float = option(1.0, v.positive, "drive frequency f", unit="Hz", fill=False)
     amplitude: float = option(1e-3, v.positive, "peak shear strain (1e-3: 0.1 % of the box)", fill=False)
     cycles: int = option(10, v.int_min(1), "oscillation cycles per direction", fill=False)
-    ramp_cycles: int = option(None, v.int_min(0), "cycles of the amplitude ramp (unset: all cycles, the seed's "
-                                                  "linearly increasing deflection)")
+    ramp_cycles: int = option(None, v.int_min(0), "cycles of the amplitude ramp",
+                              unset="all cycles (the seed's linearly increasing deflection)")
     discard_cycles: int = option(1, v.int_min(0), "cycles left out of the fit", fill=False)
     steps_per_cycle: int = option(4000, v.int_min(10), "time steps per cycle (the masses are scaled to it)",
                                   fill=False)
@@ -129,13 +129,15 @@ class ShearOptions:
                                     fill=False)
     safety: float = option(0.5, v.fraction_closed, "time step over the critical step when scaling masses",
                            fill=False)
-    mass_scale: float = option(None, v.positive, "fixed density scale factor (unset: chosen so that the time "
-                                                 "step 1/(frequency steps_per_cycle) is safety times the critical step)")
+    mass_scale: float = option(None, v.positive, "fixed density scale factor",
+                               unset="chosen so that the time step 1/(frequency steps_per_cycle) is safety times the "
+                                     "critical step")
     damping: float = option(0.9, v.fraction_closed, "local damping coefficient alpha", fill=False)
     friction: float = option(0.0, v.non_negative, "friction coefficient of unbonded contacts", fill=False)
     density: float = option(3690.0, v.positive, "particle density before mass scaling", unit="kg/m³", fill=False)
-    relax_first: bool = option(None, v.boolean, "relax before shearing (unset: when the mean unbalanced force "
-                                                "exceeds that of a bond stretched by 1e-6 of its length: prestressed)")
+    relax_first: bool = option(None, v.boolean, "relax before shearing",
+                               unset="when the mean unbalanced force exceeds that of a bond stretched by 1e-6 of its "
+                                     "length (prestressed)")
     layers: int = option(3, v.int_min(1), "plate thickness in mean diameters (plates)", fill=False)
     measurement_layers: int = option(5, v.int_min(1), "stress-measurement slabs across the sample (plates)",
                                      fill=False)
@@ -223,16 +225,18 @@ _resolutions.describe = "voxels along the box: an integer or an increasing array
 
 @dataclass(frozen=True)
 class HomogenizeOptions:
-    matrix: list = option(None, _young_pair, "matrix phase [E, nu] (Pa); with inclusions: one custom system")
-    inclusions: list = option(None, _young_pairs, "inclusion phase [E, nu] for every species, or one per species")
-    materials: list = option(None, _materials, "named systems solved as well: 'glass/epoxy', 'AP/HTPB' "
-                                                  "(without matrix and inclusions: 'glass/epoxy')")
+    matrix: list = option(None, _young_pair, "matrix phase [E, nu] (Pa); with inclusions: one custom system",
+                          unset="none: only the named materials")
+    inclusions: list = option(None, _young_pairs, "inclusion phase [E, nu] for every species, or one per species",
+                              unset="none: only the named materials")
+    materials: list = option(None, _materials, "named systems solved as well: 'glass/epoxy', 'AP/HTPB'",
+                             unset="'glass/epoxy' without matrix and inclusions, else none")
     resolution: int = option(48, _resolutions, "voxels along the longest box axis; an array gives the resolution "
                                                "series and its Richardson estimate")
     tolerance: float = option(1e-6, v.fraction_open, "CG stops at this relative residual")
     max_iterations: int = option(5000, v.int_min(1), "CG iterations per load case before giving up")
     scheme: str = option("willot", v.choice("willot", "fourier"), "discrete (rotated, Willot) or continuous Green operator")
-    workers: int = option(None, v.int_min(1), "FFT threads (default: all CPUs)")
+    workers: int = option(None, v.int_min(1), "FFT threads", unset="all CPUs")
     composite: bool = option(False, v.boolean, "composite voxels (coated HS rule from sub-voxel fractions): exact "
                                                 "phase volumes, no stiff bridges between near-touching spheres")
     precision: str = option("double", v.choice("double", "single"), "float64 or float32 fields and FFTs "
