@@ -244,8 +244,11 @@ class Capability:
         return option_specs(self.options)
 
     def resolve(self, table: dict, path: str | None = None) -> dict:
-        """Validate ``table`` against the options, fill defaults (see :func:`resolve_table`), run ``check``."""
-        path = path or f"{self.kind}.{self.name}"
+        """Validate ``table`` against the options, fill defaults (see :func:`resolve_table`), run ``check``.
+
+        ``path`` names the table in messages; default: the study's, ``analysis.NAME`` for the analyses
+        and mechanics stages (they share ``[analysis.NAME]``), else ``KIND.NAME``."""
+        path = path or (f"analysis.{self.name}" if self.kind in STAGE_KINDS else f"{self.kind}.{self.name}")
         out = resolve_table(self.specs(), table, path)
         if self.check is not None:
             _load(self.check)(out, path)
