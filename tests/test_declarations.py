@@ -522,3 +522,25 @@ def test_registry_doc_worked_example(tmp_path):
         assert "near_pairs.springs_per_particle = 330" in res.output
     finally:
         registry.unregister("mechanics", "near_pairs")
+
+
+def test_dlvo_takes_the_dlvo_keys_of_brownian(capsys):
+    """`polypack dlvo` reads --hamaker, --debye-length, ... from BrownianOptions (issue 30: one unit and one
+    declared default per quantity): the flags are those fields, and a value reaches the potential."""
+    from polypack._cli.brownian_commands import DLVO_FIELDS
+    from polypack.cli import main
+    from polypack.generate.dlvo import dlvo_extrema
+
+    flags = _flags(_click_commands()["dlvo"])
+    specs = registry.get("protocol", "brownian").specs()
+    for k in DLVO_FIELDS:
+        p = flags["--" + k.replace("_", "-")]
+        assert p.default == specs[k].default and (not specs[k].unit or f"[{specs[k].unit}]" in p.help)
+    main(["dlvo", "--surface-potential", "0.015", "--hamaker", "5e-20", "--debye-length", "3e-9"])
+    out = capsys.readouterr().out
+    e = dlvo_extrema(0.015, hamaker=5e-20, debye_length=3e-9)
+    row = [ln for ln in out.splitlines() if ln.strip().startswith("15.0")][0]
+    assert f"{e.primary_energy:11.1f}".strip() in row and "A = 5e-20 J" in out and "1/κ = 3.000 nm" in out
+    with pytest.raises(SystemExit):
+        main(["dlvo", "--hamaker", "-1"])
+    assert "--hamaker -1.0: must be >= 0 (protocol.hamaker in a study file)" in capsys.readouterr().err

@@ -103,13 +103,15 @@ def _parse_text(spec, value):
         return value
 
 
-def _field_params(cap, reserved, short=None, *, repeat=(), notes=None) -> list:
+def _field_params(cap, reserved, short=None, *, repeat=(), notes=None, fields=None) -> list:
     """One typer option per CLI field (``short``: extra short flags, ``{field: "-c"}``; ``repeat``: fields
     whose flag may be given several times, one item each; ``notes``: ``{field: text}`` added to the help)."""
     params = []
     short = short or {}
     notes = notes or {}
     for key, spec in cli_fields(cap).items():
+        if fields is not None and key not in fields:
+            continue
         if key in reserved:
             raise InvalidInputError(f"{cap.kind} {cap.name!r}: option {key!r} clashes with the command's own "
                                     f"{flag(key)}; rename the field")
@@ -164,7 +166,7 @@ def _kw(name, annotation, default, *decls, help=""):
 
 
 def options_from(kind: str, name: str, path: str | None = None, short=None, *, aliases=None, repeat=(), notes=None,
-                 prepare=None):
+                 prepare=None, fields=None):
     """Decorator of a hand-written command: its option flags are the capability's fields.
 
     The command declares only its own parameters (output, ``--n``, ``--seed`` ...) plus a
@@ -190,6 +192,10 @@ def options_from(kind: str, name: str, path: str | None = None, short=None, *, a
         ``prepare(own, flags) -> flags`` with the command's own arguments and the raw field
         values (``None``: not given), before they are checked: fill values from elsewhere (a
         run folder's study), map a deprecated value, refuse a combination.
+    fields : tuple of str, optional
+        Only these fields become flags (a command that uses part of a capability's options,
+        such as ``polypack dlvo`` with the DLVO keys of ``brownian``); ``options`` is still
+        the whole resolved table.
     """
 
     def deco(func):
@@ -201,8 +207,10 @@ def options_from(kind: str, name: str, path: str | None = None, short=None, *, a
         own = [p.replace(kind=inspect.Parameter.KEYWORD_ONLY, annotation=hints.get(p.name, p.annotation))
                for p in inspect.signature(func).parameters.values() if p.name != "options"]
         names = {p.name for p in own}
-        fields = _field_params(cap, names, short, repeat=repeat, notes=notes)
-        specs = cli_fields(cap)
+        if fields is not None and not set(fields) <= set(cli_fields(cap)):
+            raise InvalidInputError(f"fields {sorted(set(fields) - set(cli_fields(cap)))} are not options of {cap.name!r}")
+        params = _field_params(cap, names, short, repeat=repeat, notes=notes, fields=fields)
+        specs = {k: s for k, s in cli_fields(cap).items() if fields is None or k in fields}
         alias_params = {}
         for old, key in (aliases or {}).items():
             pname = "alias_" + old.lstrip("-").replace("-", "_")
@@ -210,10 +218,10 @@ def options_from(kind: str, name: str, path: str | None = None, short=None, *, a
                 raise InvalidInputError(f"alias {old} of {cap.name!r}: {key!r} is not a free field of its options")
             alias_params[pname] = (old, key)
             ann = Optional[cli_type(specs[key])]
-            fields.append(inspect.Parameter(pname, inspect.Parameter.KEYWORD_ONLY, annotation=ann,
+            params.append(inspect.Parameter(pname, inspect.Parameter.KEYWORD_ONLY, annotation=ann,
                                             default=typer.Option(None, old, hidden=True,
                                                                  help=f"Deprecated spelling of {flag(key)}.")))
-        defaults = {p.name: p.default.default for p in fields}
+        defaults = {p.name: p.default.default for p in params}
 
         def command(**kw):
             mine = {k: kw.pop(k) for k in names}
@@ -230,7 +238,7 @@ def options_from(kind: str, name: str, path: str | None = None, short=None, *, a
                 kw = prepare(mine, kw)
             return func(**mine, options=_table(cap, kw, where))
 
-        command.__signature__ = inspect.Signature(own + fields)
+        command.__signature__ = inspect.Signature(own + params)
         command.__doc__ = func.__doc__
         command.__name__ = func.__name__
         command.__wrapped_capability__ = cap

@@ -10,6 +10,10 @@ import typer
 
 from ._generated import options_from
 
+#: The ``brownian`` options that set the DLVO pair potential (``polypack dlvo`` takes these flags).
+DLVO_FIELDS = ("radius", "temperature", "relative_permittivity", "hamaker", "ionic_strength", "debye_length",
+               "minimum_separation", "model")
+
 
 def register(app: typer.Typer) -> None:
     """Add the ``brownian`` and ``dlvo`` commands to ``app``."""
@@ -53,23 +57,24 @@ def register(app: typer.Typer) -> None:
         )
 
     @app.command("dlvo")
+    @options_from("protocol", "brownian", fields=DLVO_FIELDS)
     def dlvo_command(
         surface_potential: Optional[List[float]] = typer.Option(
             None, "--surface-potential",
             help="Ψ0 in V (the unit of the API and the study file); repeat (default 0 0.012 0.013 0.014 0.015)."),
         plot: Optional[Path] = typer.Option(None, "--plot", help="Write a plot of V/kBT against h (png, pdf)."),
-        hamaker: Optional[float] = typer.Option(None, "--hamaker", help="Hamaker constant in J."),
-        ionic_strength: Optional[float] = typer.Option(None, "--ionic-strength", help="1:1 salt in mol/m³."),
-        debye_length: Optional[float] = typer.Option(None, "--debye-length", help="Debye length in m."),
-        model: str = typer.Option("auto", "--model", help="Double layer: auto, hhf or lsa."),
+        options: dict = None,
     ):
-        """Barrier and secondary minimum of the DLVO potential (kBT) for each Ψ0."""
+        """Barrier and secondary minimum of the DLVO potential (kBT) for each Ψ0.
+
+        The flags are the DLVO keys of \\[protocol] kind = "brownian" (same names, units and defaults).
+        """
         from .._util import check_plot_path
         from ..generate.dlvo import dlvo_extrema, dlvo_parameters, plot_dlvo
 
         plot_fmt = check_plot_path(plot) if plot is not None else None
         psis = list(surface_potential or [0.0, 0.012, 0.013, 0.014, 0.015])
-        kw = dict(hamaker=hamaker, ionic_strength=ionic_strength, debye_length=debye_length, model=model)
+        kw = {k: options[k] for k in DLVO_FIELDS if k in options}  # the [protocol] keys of brownian, same units
         p = dlvo_parameters(psis[0], **kw)
         typer.echo(f"a = {p.radius:g} m, T = {p.temperature:g} K, A = {p.hamaker:g} J, "
                    f"1/κ = {p.debye_length * 1e9:.3f} nm (κa = {p.radius / p.debye_length:.1f}), model {p.model}")
