@@ -400,12 +400,20 @@ def nearest_surface(points, pos, radii, box, ncell, r_max_radius, cls):
 
 
 def warmup():
-    """Compile the kernels of this module on a tiny input."""
+    """Compile the kernels of this module on a tiny input.
+
+    Positions, radii, species and box are read-only, as the estimators pass a Packing's
+    arrays: numba compiles a separate version for writable arrays, which a study's
+    first run would otherwise compile again in every worker (issue 33).
+    """
     rng = np.random.default_rng(0)
     pos = rng.random((8, 3)) * 4.0
     rad = np.full(8, 0.3)
     sp = np.zeros(8, np.int64)
     box = np.full(3, 4.0)
+    cls = sp.copy()
+    for a in (pos, rad, sp, box):
+        a.setflags(write=False)
     nc = np.array([2, 2, 2], np.int64)
     pair_histogram(pos, rad, sp, box, 1, 1.5, 10, False, nc)
     pair_histogram(pos, rad, sp, box, 1, 1.5, 10, True, nc)
@@ -413,4 +421,4 @@ def warmup():
     off = half_shell_offsets(nc3, box / 3.0, 1.0)
     pair_histogram_distance(pos, sp, box, 1, 1.0, 10, nc3, off)
     window_counts(pos, rad, sp, box, 1, np.full(8, 1.0), nc)
-    nearest_surface(rng.random((4, 3)) * 4.0, pos, rad, box, nc.reshape(1, 3), np.array([0.3]), sp)
+    nearest_surface(rng.random((4, 3)) * 4.0, pos, rad, box, nc.reshape(1, 3), np.array([0.3]), cls)

@@ -140,6 +140,48 @@ def _pair_distance(pos, radii, box, a, b, i, j):
 
 
 @njit(cache=True)
+def stable_argsort(keys):
+    """Indices that sort ``keys`` ascending, equal keys in index order (bottom-up merge sort).
+
+    The permutation of ``np.argsort(keys, kind="stable")`` for keys without NaN, written
+    out because numba's ``argsort`` and ``sort`` cost seconds of compilation in every
+    kernel that calls them (issue 33: cold start).
+    """
+    n = keys.shape[0]
+    a = np.empty(n, np.int64)
+    b = np.empty(n, np.int64)
+    for k in range(n):
+        a[k] = k
+    width = 1
+    while width < n:
+        for lo in range(0, n, 2 * width):
+            mid = min(lo + width, n)
+            hi = min(lo + 2 * width, n)
+            i = lo
+            j = mid
+            k = lo
+            while i < mid and j < hi:
+                if keys[a[j]] < keys[a[i]]:  # strict: ties keep the left (lower index) first
+                    b[k] = a[j]
+                    j += 1
+                else:
+                    b[k] = a[i]
+                    i += 1
+                k += 1
+            while i < mid:
+                b[k] = a[i]
+                i += 1
+                k += 1
+            while j < hi:
+                b[k] = a[j]
+                j += 1
+                k += 1
+        a, b = b, a
+        width *= 2
+    return a
+
+
+@njit(cache=True)
 def owner_rank(radii):
     """Rank of each sphere in the pair-ownership order of :func:`_larger`.
 
@@ -147,7 +189,7 @@ def owner_rank(radii):
     ties by index): one integer comparison per candidate in the inner loops.
     """
     n = radii.shape[0]
-    order = np.argsort(radii, kind="mergesort")  # stable: equal radii stay in index order
+    order = stable_argsort(radii)  # stable: equal radii stay in index order
     rank = np.empty(n, np.int64)
     for k in range(n):
         rank[order[k]] = k
@@ -257,9 +299,15 @@ def pairs_brute(pos, radii, box, a, b):
 
 
 def warmup():
-    """Compile the kernels of this module on a tiny input."""
+    """Compile :func:`pairs_within` on a tiny input as :func:`polypack.neighbors.pairs_within`
+    calls it: positions, radii and box read-only (numba compiles one version per
+    writability of the arguments).
+
+    The O(N^2) oracle :func:`pairs_brute` is left to the calls that use it (issue 33, cold start).
+    """
     pos = np.random.default_rng(0).random((8, 3)) * 4.0
     rad = np.full(8, 0.3)
     box = np.full(3, 4.0)
+    for a in (pos, rad, box):
+        a.setflags(write=False)
     pairs_within(pos, rad, box, 1.0, 0.1, np.array([2, 2, 2], np.int64))
-    pairs_brute(pos, rad, box, 1.0, 0.1)

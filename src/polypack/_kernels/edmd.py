@@ -42,7 +42,7 @@ from enum import IntEnum
 import numpy as np
 from numba import njit
 
-from .cells import min_image, pairs_within
+from .cells import min_image, pairs_within, stable_argsort
 
 INF = np.inf
 
@@ -270,8 +270,7 @@ def build_lists(x, rho, box, level, nlev, pad):
     + pad`` leaves room for the list to grow in local rebuilds.
     """
     n = x.shape[0]
-    rs = np.sort(rho)
-    reach_small = 2.0 * rs[n // 2]
+    reach_small = 2.0 * rho[stable_argsort(rho)[n // 2]]
     nc = _choose_ncell(box, n, reach_small)
     pi, pj, _ = pairs_within(x, rho, box, 1.0, 0.0, nc)
     return _slab_lists(pi, pj, n, level, nlev, pad)
@@ -375,7 +374,10 @@ def _grid_build(xb, level, box, rho_max_lv, nlev, n):
     counts = np.zeros(nlev, np.int64)
     for i in range(n):
         counts[level[i]] += 1
-    nc = np.ones((nlev, 3), np.int64)
+    nc = np.empty((nlev, 3), np.int64)
+    for lv in range(nlev):
+        for k in range(3):
+            nc[lv, k] = 1
     coff = np.zeros(nlev + 1, np.int64)
     for lv in range(nlev):
         if counts[lv] == 0:
@@ -388,10 +390,15 @@ def _grid_build(xb, level, box, rho_max_lv, nlev, n):
             for k in range(3):
                 nc[lv, k] = max(1, nc[lv, k] // 2)
         coff[lv + 1] = coff[lv] + nc[lv, 0] * nc[lv, 1] * nc[lv, 2]
-    head = np.full(coff[nlev], -1, np.int64)
-    nxt = np.full(n, -1, np.int64)
-    prv = np.full(n, -1, np.int64)
+    head = np.empty(coff[nlev], np.int64)
+    for c in range(coff[nlev]):
+        head[c] = -1
+    nxt = np.empty(n, np.int64)
+    prv = np.empty(n, np.int64)
     cell = np.empty(n, np.int64)
+    for i in range(n):
+        nxt[i] = -1
+        prv[i] = -1
     for i in range(n):
         lv = level[i]
         ci = coff[lv] + _cell_index(xb[i, 0], xb[i, 1], xb[i, 2], box, nc, lv)
@@ -656,10 +663,31 @@ def _shell_radius(gi, t, D, g_margin, rho_cap):
 
 
 @njit(cache=True)
+def _largest(a):
+    """``a.max()`` of a non-empty 1D array (a loop: numba's ``max`` costs a second to compile)."""
+    m = a[0]
+    for i in range(1, a.shape[0]):
+        if a[i] > m:
+            m = a[i]
+    return m
+
+
+@njit(cache=True)
+def _median(a):
+    """``np.median(a)`` of a non-empty 1D array without NaN: the middle value, or the mean
+    ``(lo + hi) / 2`` of the two middle ones (bit for bit numba's ``np.median``)."""
+    o = stable_argsort(a)
+    h = a.shape[0] >> 1
+    if a.shape[0] & 1 == 0:
+        return (a[o[h - 1]] + a[o[h]]) / 2
+    return a[o[h]]
+
+
+@njit(cache=True)
 def _levels(g):
     """Size levels for the multi-level grid: level l holds g in (gmax/2^(l+1), gmax/2^l]."""
     n = g.shape[0]
-    gmax = g.max()
+    gmax = _largest(g)
     level = np.empty(n, np.int64)
     nlev = 1
     for i in range(n):
@@ -889,7 +917,9 @@ def run_chunk(x, v, g, box, state, params, hist):
     if sync_every <= 0:
         sync_every = 4 * n
 
-    tl = np.full(n, t)
+    tl = np.empty(n)
+    for i in range(n):
+        tl[i] = t
     cnt = np.zeros(n, np.int64)
     ev_t = np.empty(n)
     ev_p = np.empty(n, np.int64)
@@ -900,8 +930,8 @@ def run_chunk(x, v, g, box, state, params, hist):
     xb = np.empty((n, 3))
     rho = np.empty(n)
     level, nlev, gmax_lv = _levels(g)
-    gmax = g.max()
-    g_margin = params[P_MARGIN_CAP] * np.median(g)
+    gmax = _largest(g)
+    g_margin = params[P_MARGIN_CAP] * _median(g)
 
     n_hist = 0
     status = CHUNK_DONE
@@ -918,7 +948,7 @@ def run_chunk(x, v, g, box, state, params, hist):
     off = np.zeros(n + 1, np.int64)
     nn = np.zeros(n, np.int64)
     nbr = np.zeros(0, np.int64)
-    pad = 8
+    pad = np.int64(8)  # an int64, not the literal 8: build_lists compiles once
     rho_cap = 0.249 * min(box[0], min(box[1], box[2]))
     rho_max_lv = np.zeros(nlev)
     nc, coff, head, nxt, prv, cell = _grid_build(x, level, box, gmax_lv, nlev, n)
@@ -1027,7 +1057,11 @@ def next_event_brute(x, v, g, box, t, images=3):
 
 
 def warmup():
-    """Compile the kernels of this module on a tiny input."""
+    """Compile the kernel :func:`polypack.generate.pack` runs (:func:`run_chunk`) on a tiny input.
+
+    The test oracle :func:`next_event_brute` is left to the tests that call it: a study's
+    first run compiles what its stages run and nothing else (issue 33, cold start).
+    """
     rng = np.random.default_rng(0)
     n = 16
     box = np.full(3, 6.0)
@@ -1038,4 +1072,3 @@ def warmup():
     params = make_params(50.0, 100.0, 1e6, 16.0, 50.0, 0.3, 1e6, 0.0, 0.5, 3.0)
     hist = np.zeros((16, 3))
     run_chunk(x, v, g, box, state, params, hist)
-    next_event_brute(x, v, g, box, state[S_TIME])

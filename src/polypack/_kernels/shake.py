@@ -551,13 +551,20 @@ def min_list_gap(pos, radii, box, start, idx):
 
 
 def warmup():
-    """Compile the kernels of this module on a tiny input (a simple cubic lattice)."""
+    """Compile the kernels of this module on a tiny input (a simple cubic lattice).
+
+    ``radii``, ``species`` and ``box`` are read-only, as :func:`polypack.shake` passes a
+    Packing's arrays: numba compiles a separate version for writable arrays, which a
+    study's first run would otherwise compile again in every worker (issue 33).
+    """
     g = np.arange(3, dtype=np.float64) + 0.5
     pos = np.array([[x, y, z] for x in g for y in g for z in g], dtype=np.float64) * 2.0
     n = pos.shape[0]
     radii = np.full(n, 0.4)
     species = np.zeros(n, np.int64)
     box = np.full(3, 6.0)
+    for a in (radii, species, box):
+        a.setflags(write=False)
     ncell = np.array([2, 2, 2], np.int64)
     skin = 0.5
     start, idx = build_list(pos, radii, box, skin, ncell)

@@ -115,12 +115,14 @@ def _check_shake_options(pr):
     if not opts or not (pr["kind"] == "scrm" or pr.get("global_shakes", 0) > 0):
         return
     import polypack as pp
+    from ..generate.shake import options_check
     from ..packing import Packing
 
     tiny = Packing(np.array([[0.0, 0.0, 0.0], [2.5, 2.5, 2.5]]), np.array([0.5, 0.25]), np.full(3, 5.0),
                    species=np.array([0, 1]))
     try:
-        pp.shake(tiny, global_shakes=0, seed=0, progress=False, **opts)
+        with options_check():  # no kernel compiles in this (the main) process
+            pp.shake(tiny, global_shakes=0, seed=0, progress=False, **opts)
     except InvalidInputError as exc:
         msg = str(exc)
         from ..generate._capabilities import SHAKE_KEYWORDS  # protocol key -> shake() argument

@@ -13,6 +13,8 @@ The numerical engine is :mod:`polypack._kernels.shake`.
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import math
 import time
 from dataclasses import dataclass
@@ -36,6 +38,22 @@ _DEFAULT_ORDER = {"paper": "sequential", "collision": "sequential", "metropolis"
 _RSH_MIN = 1e-4
 #: Relative overlap tolerated in an *input* pack (round-off of a touching pair).
 INPUT_OVERLAP_TOLERANCE = 1e-12
+
+# inside options_check(): shake() judges its options and returns before any kernel runs
+_OPTIONS_ONLY = contextvars.ContextVar("polypack_shake_options_only", default=False)
+
+
+@contextlib.contextmanager
+def options_check():
+    """Within this block :func:`shake` only judges its options (the same errors) and returns
+    the packing unchanged, before any numba kernel is compiled or loaded: the option checks
+    of ``polypack run`` and :func:`scrm` on a two-sphere pack cost no compilation
+    (issue 33: cold start)."""
+    token = _OPTIONS_ONLY.set(True)
+    try:
+        yield
+    finally:
+        _OPTIONS_ONLY.reset(token)
 
 
 def _per_species(name, value, n_species, kind=float):
@@ -282,7 +300,8 @@ def shake(
     radii = np.ascontiguousarray(packing.radii, dtype=np.float64)
     box = np.ascontiguousarray(packing.box, dtype=np.float64)
     species = np.ascontiguousarray(packing.species, dtype=np.int64)
-    gap_in, pair_in = packing.closest_pair()
+    options_only = _OPTIONS_ONLY.get()
+    gap_in, pair_in = (0.0, None) if options_only else packing.closest_pair()
     if gap_in < -INPUT_OVERLAP_TOLERANCE:
         raise OverlapError(
             f"input pack overlaps: spheres {pair_in[0]} and {pair_in[1]} have relative gap {gap_in:.3e} "
@@ -305,6 +324,8 @@ def shake(
             f"shake_radius={rsh_top:g} exceeds the neighbour skin {s:g} (the box allows at most "
             f"{s_cap:g}); use a smaller shake_radius or a larger pack"
         )
+    if options_only:
+        return packing
     pos = np.array(packing.positions, dtype=np.float64, order="C")
     since = np.zeros_like(pos)
     net = np.zeros_like(pos)
@@ -540,7 +561,7 @@ def _check_shake_options(options):
     if "shake_radius" in opts or "max_trials" in opts:  # per-species values: judged on the real pack
         opts.pop("shake_radius", None)
         opts.pop("max_trials", None)
-    with _interrupt.deferred():
+    with _interrupt.deferred(), options_check():
         shake(tiny, global_shakes=0, seed=0, progress=False, **{**opts, "monitor_every": 0})
 
 
