@@ -851,7 +851,7 @@ MUTANTS += [
            'o["radius"], o.get("stiffness", "contact")', 'o["radius"], "contact"',
            T_H32, "dropped option (polypack elastic --stiffness ignored)"),
     Mutant("h32-cli-export", "src/polypack/_cli/network_commands.py",
-           "shear_stiffness=ks, stiffness=stiffness)", "shear_stiffness=ks)",
+           'stiffness=options.get("stiffness", "contact"))', 'stiffness="contact")',
            T_H32, "dropped option (polypack export-network --stiffness ignored: per-ball values exported)"),
     Mutant("h32-report-semantics", "src/polypack/studies/seed003_heterogeneity.py",
            '        return elastic.get("stiffness", "contact")\n', '        return "contact"\n',
