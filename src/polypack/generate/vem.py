@@ -60,6 +60,11 @@ Structure contacts
     Frictionless by default; ``structure_contacts = "sticky"`` bonds a structure pair at
     its first touch for the rest of the run (a model of coagulation; measured against
     Table 2 of the seed in ``docs/vem.md``: it lowers both ``a`` and C, so it is not the default).
+Restructuring
+    ``restructure = "coagulation"`` (default ``"none"``) lets the finished structure coagulate
+    by Brownian dynamics with DLVO forces (:func:`_coagulate`; the experiment VEM mimics
+    coagulates, §2.2 of 003_873b69fc71c74cf6.txt) until its bond coordination is stable;
+    measured against Table 2 in ``docs/vem.md``.
 Finish
     Voids deleted; the residual structure overlaps (about 1 % of the diameter at the
     stop) are removed by projections (:func:`polypack._kernels.vem.separate`), the
