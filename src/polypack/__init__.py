@@ -7,8 +7,8 @@ Implements 000_2cedc098acbd866b.txt (random bimodal packs), 001_ad5bae0acea940c4
 from __future__ import annotations
 
 # First: in the CLI's own process (``polypack ...``, ``python -m polypack ...``) a Ctrl-C
-# during the imports below exits 130 with one line, not with a traceback (see _entry).
-from ._entry import guard_cli_process as _guard_cli_process
+# during the imports below exits 130 with one line, not with a traceback (see _interrupt).
+from ._interrupt import guard_cli_process as _guard_cli_process
 
 _guard_cli_process()
 

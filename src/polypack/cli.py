@@ -95,10 +95,10 @@ def _click_exception_types():
 
 def _interrupted():
     """Ctrl-C: one line naming what this command saved, exit code 130."""
-    from ._entry import _interrupted_line, said_interrupted
+    from ._interrupt import interrupted_line, said_interrupted
 
     said_interrupted()  # in the CLI's process a further Ctrl-C is ignored until the exit
-    typer.echo(_interrupted_line(), err=True)
+    typer.echo(interrupted_line(), err=True)
     sys.exit(130)
 
 
@@ -110,9 +110,8 @@ def main(argv=None):
     are atomic: nothing half-written is ever left under a requested name).
     """
     from . import _interrupt, _util
-    from ._entry import _restore_sigint
 
-    _restore_sigint()  # SIGINT works for a command started in the background too
+    _interrupt.restore_sigint()  # SIGINT works for a command started in the background too
     _util._WRITTEN.clear()
     try:
         # The whole command runs with Ctrl-C deferred to its safe points (kernel chunks,
