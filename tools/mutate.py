@@ -259,8 +259,8 @@ MUTANTS = [
            '"Cu": d60 / d10,', '"Cu": d50 / d10,', T_PSD, "wrong index"),
     # --------------------------------------------------------------- generate
     Mutant("g-metropolis-feedback", G + "shake.py",
-           "fac = min(1.4, max(0.7, acc[k] / target_acceptance))",
-           "fac = min(1.4, max(0.7, target_acceptance / acc[k]))",
+           "fac = min(1.4, max(0.7, acc[k] / o[\"target_acceptance\"]))",
+           "fac = min(1.4, max(0.7, o[\"target_acceptance\"] / acc[k]))",
            T_SHAKE, "wrong sign (inverted feedback)"),
     Mutant("g-pack-event-budget", G + "lubachevsky.py",
            "ev_budget = int(max_events) - int(state[edmd.S_EVENTS])", "ev_budget = int(max_events)",

@@ -236,9 +236,67 @@ def shake(
         carries that pack in ``.partial`` (``meta["status"] == "interrupted"``).
     """
     from .._kernels import shake as kern
-    from ..neighbors import choose_cells
 
     wall0 = time.perf_counter()
+    o = _check_shake(packing, global_shakes=global_shakes, shake_radius=shake_radius, max_trials=max_trials,
+                     method=method, seed=seed, order=order, adaptive=adaptive, adapt_shakes=adapt_shakes,
+                     adapt_factor=adapt_factor, target_acceptance=target_acceptance, monitor=monitor,
+                     monitor_every=monitor_every, callback=callback, tuning=tuning)
+    radii = np.ascontiguousarray(packing.radii, dtype=np.float64)
+    box = np.ascontiguousarray(packing.box, dtype=np.float64)
+    species = np.ascontiguousarray(packing.species, dtype=np.int64)
+    options_only = _OPTIONS_ONLY.get()
+    gap_in, pair_in = (0.0, None) if options_only else packing.closest_pair()
+    if gap_in < -INPUT_OVERLAP_TOLERANCE:
+        raise OverlapError(
+            f"input pack overlaps: spheres {pair_in[0]} and {pair_in[1]} have relative gap {gap_in:.3e} "
+            f"(allowed >= {-INPUT_OVERLAP_TOLERANCE:g}); shaking needs a non-overlapping pack"
+        )
+    s, s_cap = _verlet_skin(o["skin"], box, radii, o["rsh"])
+    if options_only:
+        return packing
+    pos = np.array(packing.positions, dtype=np.float64, order="C")
+    rng = o["ss"].generate_state(4, np.uint64)
+    nb = _Neighbours(kern, pos, radii, box, species, o["rsh"], s, s_cap, o["skin"], o["neighbours"])
+    nb.arrange()
+    nb.rebuilds = 0
+    mon = _MonitorLog(monitor)
+    if o["monitor_every"] != 0:
+        mon.record(0, packing)
+    rsh0 = o["rsh"].copy()
+    run = _sweep(kern, packing, pos, nb, rng, mon, o, callback, progress)
+
+    meta = dict(packing.meta)
+    history = list(meta.get("history", []))
+    out = Packing(pos, radii, box, species=species, meta=meta)
+    gap_out, pair_out = out.closest_pair()
+    if gap_out < min(gap_in, 0.0):
+        raise OverlapError(
+            f"shaking produced an overlap: spheres {pair_out[0]} and {pair_out[1]} with relative gap "
+            f"{gap_out:.3e}; please report this"
+        )
+    monitor_every = o["monitor_every"]
+    if monitor_every is None or (monitor_every and o["global_shakes"] % monitor_every != 0):
+        mon.record(o["global_shakes"], out)
+    rec = _shake_record(o, nb, rsh0, run, mon, gap_in, gap_out)
+    rec["wall_time"] = time.perf_counter() - wall0
+    hist = run["hist"]
+    summary = {k: v for k, v in rec.items() if k not in hist and k != "monitor"}
+    if rec["monitor"] is not None:
+        summary[f"{mon.name}_final"] = {k: v[-1] for k, v in mon.log[mon.name].items()}
+    history.append(summary)
+    meta["shake"] = rec
+    meta["history"] = history
+    meta["min_gap"] = float(gap_out)
+    out.meta = meta
+    return out
+
+
+# ---------------------------------------------------------------- shake: the steps
+def _check_shake(packing, *, global_shakes, shake_radius, max_trials, method, seed, order, adaptive, adapt_shakes,
+                 adapt_factor, target_acceptance, monitor, monitor_every, callback, tuning):
+    """The options of :func:`shake` checked and normalised (per-species ``rsh`` and ``trials``
+    arrays, the method's defaults filled in, the seed sequence ``ss``) as a dict."""
     if not isinstance(packing, Packing):
         raise InvalidInputError(
             f"shake needs a polypack.Packing, got {type(packing).__name__}; build one with polypack.Packing(...)"
@@ -296,19 +354,15 @@ def shake(
     if callback is not None and not callable(callback):
         raise InvalidInputError(f"callback={callback!r}: must be callable as callback(m, packing)")
     ss = as_seed_sequence(seed)
+    return dict(method=method, global_shakes=global_shakes, ns=ns, rsh=rsh, trials=trials, order=order,
+                adaptive=adaptive, adapt_shakes=adapt_shakes, adapt_factor=adapt_factor,
+                target_acceptance=target_acceptance, monitor_every=monitor_every, skin=skin, neighbours=neighbours,
+                ss=ss)
 
-    radii = np.ascontiguousarray(packing.radii, dtype=np.float64)
-    box = np.ascontiguousarray(packing.box, dtype=np.float64)
-    species = np.ascontiguousarray(packing.species, dtype=np.int64)
-    options_only = _OPTIONS_ONLY.get()
-    gap_in, pair_in = (0.0, None) if options_only else packing.closest_pair()
-    if gap_in < -INPUT_OVERLAP_TOLERANCE:
-        raise OverlapError(
-            f"input pack overlaps: spheres {pair_in[0]} and {pair_in[1]} have relative gap {gap_in:.3e} "
-            f"(allowed >= {-INPUT_OVERLAP_TOLERANCE:g}); shaking needs a non-overlapping pack"
-        )
 
-    # Verlet skin: at least the largest window, capped so that the list reach stays below L/2
+def _verlet_skin(skin, box, radii, rsh):
+    """``(s, s_cap)``: the relative Verlet skin (at least the largest window, default ``max(0.5,
+    4 max R_sh)``) and its cap, which keeps the list reach below ``L / 2``."""
     s_cap = float(box.min()) / (4.0 * float(radii.max())) - 1.0
     rsh_top = float(rsh.max())
     if skin is None:
@@ -324,83 +378,108 @@ def shake(
             f"shake_radius={rsh_top:g} exceeds the neighbour skin {s:g} (the box allows at most "
             f"{s_cap:g}); use a smaller shake_radius or a larger pack"
         )
-    if options_only:
-        return packing
-    pos = np.array(packing.positions, dtype=np.float64, order="C")
-    since = np.zeros_like(pos)
-    net = np.zeros_like(pos)
-    rng = ss.generate_state(4, np.uint64)
-    r_max, r_min = float(radii.max()), float(radii.min())
-    # per-species largest radius: the largest absolute step of species k is rsh[k] * a_max^(k)
-    r_max_sp = np.array([radii[species == k].max() if np.any(species == k) else 0.0 for k in range(ns)])
-    similar = r_max <= 2.0 * r_min
-    nb = {"mode": None, "s": s, "ncell": None, "start": None, "idx": None, "t_build": 0.0, "rebuilds": 0,
-          "h": 0.0, "cgrid": np.ones(3, np.int64), "links": None}
-    dummy_i = np.zeros(1, np.int64)
+    return s, s_cap
 
-    def verlet(s_new):
-        nb["s"] = s_new
-        reach_small = 2.0 * (1.0 + s_new) * float(np.percentile(radii, 10))
-        nb["ncell"] = np.ascontiguousarray(choose_cells(box, packing.n, reach_small), dtype=np.int64)
+
+class _Neighbours:
+    """The neighbour structure of the overlap test: the size-aware Verlet list (``start``, ``idx``
+    with relative skin ``s``; ``since`` the displacements since its build) or linked cells of
+    side ``h`` (``cgrid``, ``links``). ``rsh`` is the live (adapted in place) window array."""
+
+    def __init__(self, kern, pos, radii, box, species, rsh, s, s_cap, skin, neighbours):
+        self.kern, self.pos, self.radii, self.box, self.rsh = kern, pos, radii, box, rsh
+        self.s_cap, self.skin, self.neighbours = s_cap, skin, neighbours
+        self.since = np.zeros_like(pos)
+        self.r_max, r_min = float(radii.max()), float(radii.min())
+        # per-species largest radius: the largest absolute step of species k is rsh[k] * a_max^(k)
+        self.r_max_sp = np.array([radii[species == k].max() if np.any(species == k) else 0.0
+                                  for k in range(rsh.shape[0])])
+        self.similar = self.r_max <= 2.0 * r_min
+        self.mode, self.s, self.ncell, self.start, self.idx = None, s, None, None, None
+        self.t_build, self.rebuilds, self.h = 0.0, 0, 0.0
+        self.cgrid, self.links = np.ones(3, np.int64), None
+
+    def verlet(self, s_new):
+        from ..neighbors import choose_cells
+
+        self.s = s_new
+        reach_small = 2.0 * (1.0 + s_new) * float(np.percentile(self.radii, 10))
+        self.ncell = np.ascontiguousarray(choose_cells(self.box, self.pos.shape[0], reach_small), dtype=np.int64)
         t = time.perf_counter()
-        nb["start"], nb["idx"] = kern.build_list(pos, radii, box, s_new, nb["ncell"])
-        nb["t_build"] = time.perf_counter() - t
-        since[:] = 0.0
-        nb["mode"] = "verlet"
-        nb["rebuilds"] += 1
+        self.start, self.idx = self.kern.build_list(self.pos, self.radii, self.box, s_new, self.ncell)
+        self.t_build = time.perf_counter() - t
+        self.since[:] = 0.0
+        self.mode = "verlet"
+        self.rebuilds += 1
 
-    def cells(step_abs):
+    def cells(self, step_abs):
         # cell side >= 2 r_max + the largest step: the 27 cells around a sphere hold every partner
-        nb["h"] = 2.0 * r_max + 1.5 * step_abs
-        nb["cgrid"] = np.maximum(1, np.floor(box / nb["h"])).astype(np.int64)
-        nb["links"] = kern.build_links(pos, box, nb["cgrid"])
-        nb["mode"] = "cells"
+        self.h = 2.0 * self.r_max + 1.5 * step_abs
+        self.cgrid = np.maximum(1, np.floor(self.box / self.h)).astype(np.int64)
+        self.links = self.kern.build_links(self.pos, self.box, self.cgrid)
+        self.mode = "cells"
 
-    def arrange():
+    def arrange(self):
         """Pick and (re)build the neighbour structure for the current windows."""
-        step_abs = float(np.max(rsh * r_max_sp))
-        want = neighbours == "cells" or (neighbours == "auto" and similar and float(rsh.max()) >= 0.25)
+        rsh, skin = self.rsh, self.skin
+        step_abs = float(np.max(rsh * self.r_max_sp))
+        want = self.neighbours == "cells" or (self.neighbours == "auto" and self.similar and float(rsh.max()) >= 0.25)
         if want:
-            if nb["mode"] != "cells" or 2.0 * r_max + step_abs > nb["h"]:
-                cells(step_abs)
-        elif nb["mode"] != "verlet":
-            verlet(nb["s"])
-        elif float(rsh.max()) > nb["s"] or (skin is None and 3.0 * float(rsh.max()) > nb["s"] and nb["s"] < s_cap):
+            if self.mode != "cells" or 2.0 * self.r_max + step_abs > self.h:
+                self.cells(step_abs)
+        elif self.mode != "verlet":
+            self.verlet(self.s)
+        elif float(rsh.max()) > self.s or (skin is None and 3.0 * float(rsh.max()) > self.s and self.s < self.s_cap):
             # the window grew: widen the skin (it must never be below the window)
             top = float(rsh.max())
-            verlet(min(s_cap, 4.0 * top) if skin is None else max(nb["s"], top))
+            self.verlet(min(self.s_cap, 4.0 * top) if skin is None else max(self.s, top))
 
-    arrange()
-    nb["rebuilds"] = 0
-    rebuilds = 0
 
-    counts = np.bincount(species, minlength=ns).astype(np.float64)
-    mon_name = str(getattr(monitor, "name", "values"))
-    mon_record = {"global_shake": [], mon_name: {}}
-    if getattr(monitor, "options", None) is not None:
-        mon_record["options"] = dict(monitor.options)
+class _MonitorLog:
+    """The values of a convergence monitor per recorded global shake (``log``, keyed ``name``)."""
 
-    def record(m, pk):
-        mon_record["global_shake"].append(m)
-        vals = monitor(pk)
+    def __init__(self, monitor):
+        self.monitor = monitor
+        self.name = str(getattr(monitor, "name", "values"))
+        self.log = {"global_shake": [], self.name: {}}
+        if getattr(monitor, "options", None) is not None:
+            self.log["options"] = dict(monitor.options)
+
+    def record(self, m, pk):
+        self.log["global_shake"].append(m)
+        vals = self.monitor(pk)
         for key, v in vals.items():
-            mon_record[mon_name].setdefault(str(key), []).append(float(v))
+            self.log[self.name].setdefault(str(key), []).append(float(v))
 
-    if monitor_every != 0:
-        record(0, packing)
 
-    rsh0 = rsh.copy()
-    hist = {"acceptance_rate": [], "moved_fraction": [], "mean_displacement": [], "net_displacement": [],
-            "shake_radius_history": [], "grown_fraction": []}
-    total_trials = 0.0
-    total_accepted = 0.0
-    kernel_time = 0.0
-    code, ocode = _METHOD_CODE[method], _ORDER_CODE[order]
+def _nanlist(a):
+    return [None if not math.isfinite(x) else float(x) for x in a]
+
+
+def _sweep(kern, packing, pos, nb, rng, mon, o, callback, progress):
+    """The global shakes: kernel calls of up to 20 shakes (one while adapting, monitoring or
+    calling back), Ctrl-C deferred to their ends.
+
+    Returns the run's counters: ``hist`` (per-shake statistics), ``trials``, ``accepted``,
+    ``kernel_time`` and ``rebuilds`` (inside the kernel).
+
+    Raises
+    ------
+    polypack.errors.Interrupted
+        On Ctrl-C, with the pack at the end of the last kernel call in ``.partial``.
+    """
+    method, global_shakes, ns, rsh = o["method"], o["global_shakes"], o["ns"], o["rsh"]
+    adaptive, adapt_shakes, monitor_every = o["adaptive"], o["adapt_shakes"], o["monitor_every"]
+    radii = nb.radii
+    species = np.ascontiguousarray(packing.species, dtype=np.int64)
+    net = np.zeros_like(pos)
+    dummy_i = np.zeros(1, np.int64)
+    counts = np.bincount(species, minlength=ns).astype(np.float64)
+    run = {"hist": {"acceptance_rate": [], "moved_fraction": [], "mean_displacement": [], "net_displacement": [],
+                    "shake_radius_history": [], "grown_fraction": []},
+           "trials": 0.0, "accepted": 0.0, "kernel_time": 0.0, "rebuilds": 0}
+    code, ocode = _METHOD_CODE[method], _ORDER_CODE[o["order"]]
     r2 = radii**2
-
-    def nanlist(a):
-        return [None if not math.isfinite(x) else float(x) for x in a]
-
     bar = progress_bar(total=global_shakes, desc=f"shake ({method})", progress=progress, unit="shake")
     m = 0
     window_sweeps = window_rebuilds = 0
@@ -415,7 +494,7 @@ def shake(
                     partial.meta = dict(packing.meta, status="interrupted",
                                         shake={"generator": "polypack.shake", "interrupted": True,
                                                "global_shakes": global_shakes, "global_shakes_done": m,
-                                               "seed": seed_record(ss)})
+                                               "seed": seed_record(o["ss"])})
                     raise Interrupted(
                         f"shake interrupted after {m} of {global_shakes} global shakes "
                         "(the partial pack is in .partial)",
@@ -428,67 +507,55 @@ def shake(
                 else:
                     chunk = min(global_shakes - m, 20)
                 stats = np.zeros((chunk, ns, kern.N_STATS))
-                use_cells = nb["mode"] == "cells"
+                use_cells = nb.mode == "cells"
                 if use_cells:
-                    head, nxt, prv, cell = nb["links"]
-                    start, idx, ncell = dummy_i, dummy_i, nb["cgrid"]
-                    cap = (nb["h"] - 2.0 * r_max) / r_max
+                    head, nxt, prv, cell = nb.links
+                    start, idx, ncell = dummy_i, dummy_i, nb.cgrid
+                    cap = (nb.h - 2.0 * nb.r_max) / nb.r_max
                 else:
                     head = nxt = prv = cell = dummy_i
-                    start, idx, ncell = nb["start"], nb["idx"], nb["ncell"]
-                    cap = 0.5 * nb["s"]
+                    start, idx, ncell = nb.start, nb.idx, nb.ncell
+                    cap = 0.5 * nb.s
                 t0 = time.perf_counter()
                 start, idx, nreb = kern.shake_sweeps(
-                    pos, since, radii, species, box, rsh, start, idx, nb["s"], ncell, code, ocode, trials, chunk,
-                    adapting and method != "metropolis", adapt_factor, _RSH_MIN, cap, rng, net, stats,
-                    use_cells, nb["cgrid"], head, nxt, prv, cell,
+                    pos, nb.since, radii, species, nb.box, rsh, start, idx, nb.s, ncell, code, ocode, o["trials"],
+                    chunk, adapting and method != "metropolis", o["adapt_factor"], _RSH_MIN, cap, rng, net, stats,
+                    use_cells, nb.cgrid, head, nxt, prv, cell,
                 )
                 elapsed = time.perf_counter() - t0
-                kernel_time += elapsed
+                run["kernel_time"] += elapsed
                 if not use_cells:
-                    nb["start"], nb["idx"] = start, idx
-                rebuilds += int(nreb)
+                    nb.start, nb.idx = start, idx
+                run["rebuilds"] += int(nreb)
                 window_sweeps += chunk
                 window_rebuilds += int(nreb)
                 window_time += elapsed
                 if window_sweeps >= 20:
                     # rebuilds take more than ~1/4 of the time: a wider skin pays off
-                    frequent = window_rebuilds * nb["t_build"] > 0.25 * window_time
+                    frequent = window_rebuilds * nb.t_build > 0.25 * window_time
                     window_sweeps = window_rebuilds = 0
                     window_time = 0.0
                 else:
                     frequent = False
-                if skin is None and frequent and nb["mode"] == "verlet" and nb["s"] < s_cap:
-                    verlet(min(s_cap, 1.4 * nb["s"]))
-                for st in stats:
-                    m += 1
-                    total_trials += float(st[:, kern.ST_TRIALS].sum())
-                    total_accepted += float(st[:, kern.ST_ACCEPTED].sum())
-                    with np.errstate(invalid="ignore", divide="ignore"):
-                        acc = st[:, kern.ST_ACCEPTED] / st[:, kern.ST_TRIALS]
-                        moved = st[:, kern.ST_MOVED] / st[:, kern.ST_VISITS]
-                        mdisp = st[:, kern.ST_DISP] / st[:, kern.ST_ACCEPTED]
-                        grown = st[:, kern.ST_GROW] / st[:, kern.ST_VISITS]
-                    hist["acceptance_rate"].append(nanlist(acc))
-                    hist["moved_fraction"].append(nanlist(moved))
-                    hist["mean_displacement"].append(nanlist(mdisp))
-                    hist["grown_fraction"].append(nanlist(grown) if adapting and method != "metropolis" else None)
-                    hist["shake_radius_history"].append([float(x) for x in rsh])
+                if nb.skin is None and frequent and nb.mode == "verlet" and nb.s < nb.s_cap:
+                    nb.verlet(min(nb.s_cap, 1.4 * nb.s))
+                m, acc = _record_shakes(kern, stats, run, m, rsh, adapting and method != "metropolis")
                 with np.errstate(invalid="ignore", divide="ignore"):
                     netd = np.sqrt(np.bincount(species, weights=(net * net).sum(axis=1) / r2, minlength=ns) / counts)
-                hist["net_displacement"].append([m, nanlist(netd)])
+                run["hist"]["net_displacement"].append([m, _nanlist(netd)])
                 if adapting and method == "metropolis":
+                    st = stats[-1]
                     for k in range(ns):
                         if st[k, kern.ST_TRIALS] > 0:
-                            fac = min(1.4, max(0.7, acc[k] / target_acceptance))
-                            rsh[k] = min(s_cap, max(_RSH_MIN, rsh[k] * fac))
-                    hist["shake_radius_history"][-1] = [float(x) for x in rsh]
+                            fac = min(1.4, max(0.7, acc[k] / o["target_acceptance"]))
+                            rsh[k] = min(nb.s_cap, max(_RSH_MIN, rsh[k] * fac))
+                    run["hist"]["shake_radius_history"][-1] = [float(x) for x in rsh]
                 if adapting:
-                    arrange()
+                    nb.arrange()
                 if per_shake:
                     cur = packing.replace(positions=pos)
                     if monitor_every and m % monitor_every == 0:
-                        record(m, cur)
+                        mon.record(m, cur)
                     if callback is not None:
                         callback(m, cur)
                 bar.update(chunk)
@@ -496,54 +563,60 @@ def shake(
                     bar.set_postfix(acc=f"{np.nanmean(acc):.3f}")
         finally:
             bar.close()
+    return run
 
-    meta = dict(packing.meta)
-    history = list(meta.get("history", []))
-    out = Packing(pos, radii, box, species=species, meta=meta)
-    gap_out, pair_out = out.closest_pair()
-    if gap_out < min(gap_in, 0.0):
-        raise OverlapError(
-            f"shaking produced an overlap: spheres {pair_out[0]} and {pair_out[1]} with relative gap "
-            f"{gap_out:.3e}; please report this"
-        )
-    if monitor_every is None or (monitor_every and global_shakes % monitor_every != 0):
-        record(global_shakes, out)
-    run = {
+
+def _record_shakes(kern, stats, run, m, rsh, seed_adapting):
+    """Add the kernel statistics of each global shake in ``stats`` to ``run``; returns the shake
+    count after them and the acceptance per species of the last one."""
+    hist = run["hist"]
+    for st in stats:
+        m += 1
+        run["trials"] += float(st[:, kern.ST_TRIALS].sum())
+        run["accepted"] += float(st[:, kern.ST_ACCEPTED].sum())
+        with np.errstate(invalid="ignore", divide="ignore"):
+            acc = st[:, kern.ST_ACCEPTED] / st[:, kern.ST_TRIALS]
+            moved = st[:, kern.ST_MOVED] / st[:, kern.ST_VISITS]
+            mdisp = st[:, kern.ST_DISP] / st[:, kern.ST_ACCEPTED]
+            grown = st[:, kern.ST_GROW] / st[:, kern.ST_VISITS]
+        hist["acceptance_rate"].append(_nanlist(acc))
+        hist["moved_fraction"].append(_nanlist(moved))
+        hist["mean_displacement"].append(_nanlist(mdisp))
+        hist["grown_fraction"].append(_nanlist(grown) if seed_adapting else None)
+        hist["shake_radius_history"].append([float(x) for x in rsh])
+    return m, acc
+
+
+def _shake_record(o, nb, rsh0, run, mon, gap_in, gap_out):
+    """``meta["shake"]`` of a finished run (``wall_time`` left None for the caller)."""
+    adaptive, method = o["adaptive"], o["method"]
+    total_trials, total_accepted, kernel_time = run["trials"], run["accepted"], run["kernel_time"]
+    return {
         "generator": "polypack.shake",
         "method": method,
-        "seed": seed_record(ss),
-        "global_shakes": global_shakes,
+        "seed": seed_record(o["ss"]),
+        "global_shakes": o["global_shakes"],
         "shake_radius": [float(x) for x in rsh0],
-        "final_shake_radius": [float(x) for x in rsh],
-        "max_trials": [int(x) for x in trials],
-        "order": order,
+        "final_shake_radius": [float(x) for x in o["rsh"]],
+        "max_trials": [int(x) for x in o["trials"]],
+        "order": o["order"],
         "adaptive": bool(adaptive),
-        "adapt_shakes": adapt_shakes if adaptive else 0,
-        "target_acceptance": target_acceptance if (adaptive and method == "metropolis") else None,
-        "skin": nb["s"],
-        "neighbours": neighbours,
-        "final_neighbour_structure": nb["mode"],
+        "adapt_shakes": o["adapt_shakes"] if adaptive else 0,
+        "target_acceptance": o["target_acceptance"] if (adaptive and method == "metropolis") else None,
+        "skin": nb.s,
+        "neighbours": o["neighbours"],
+        "final_neighbour_structure": nb.mode,
         "trials": int(total_trials),
         "accepted": int(total_accepted),
         "acceptance": total_accepted / total_trials if total_trials else None,
         "trial_moves_per_second": total_trials / kernel_time if kernel_time > 0 else None,
-        "rebuilds": rebuilds + nb["rebuilds"],
+        "rebuilds": run["rebuilds"] + nb.rebuilds,
         "wall_time": None,
         "min_gap": float(gap_out),
         "input_min_gap": float(gap_in),
-        "monitor": mon_record if monitor_every != 0 else None,
-        **hist,
+        "monitor": mon.log if o["monitor_every"] != 0 else None,
+        **run["hist"],
     }
-    run["wall_time"] = time.perf_counter() - wall0
-    summary = {k: v for k, v in run.items() if k not in hist and k != "monitor"}
-    if run["monitor"] is not None:
-        summary[f"{mon_name}_final"] = {k: v[-1] for k, v in mon_record[mon_name].items()}
-    history.append(summary)
-    meta["shake"] = run
-    meta["history"] = history
-    meta["min_gap"] = float(gap_out)
-    out.meta = meta
-    return out
 
 
 def _check_shake_options(options):
@@ -652,8 +725,6 @@ def scrm(
         no later stage runs; ``.partial`` is the pack of the last finished step (or
         None), marked ``meta["status"] == "interrupted"``.
     """
-    from . import pack
-
     if isinstance(volume_fraction, str) or not isinstance(volume_fraction, (int, float, np.floating)):
         raise InvalidInputError(f"volume_fraction={volume_fraction!r}: scrm needs a number in (0, 1)")
     c = float(volume_fraction)
@@ -661,20 +732,7 @@ def scrm(
         raise InvalidInputError(f"volume_fraction={c!r}: must be in (0, 1)")
     stage_shakes = _check_int("stage_shakes", stage_shakes, 0)
     global_shakes = _check_int("global_shakes", global_shakes, 0)
-    if schedule is None:
-        growth_steps = _check_int("growth_steps", growth_steps, 1)
-        c0 = 0.8 * c if start_fraction is None else float(start_fraction)
-        if not (0 < c0 <= c):
-            raise InvalidInputError(f"start_fraction={start_fraction!r}: must be in (0, volume_fraction]")
-        fractions = [c] if growth_steps == 1 else list(np.linspace(c0, c, growth_steps))
-    else:
-        fractions = [float(x) for x in schedule]
-        if not fractions or any(not (0 < x < 1) for x in fractions):
-            raise InvalidInputError(f"schedule={schedule!r}: needs fractions in (0, 1)")
-        if any(b <= a for a, b in zip(fractions, fractions[1:])):
-            raise InvalidInputError(f"schedule={schedule!r}: fractions must increase")
-        if abs(fractions[-1] - c) > 1e-12:
-            raise InvalidInputError(f"schedule ends at {fractions[-1]!r}; it must end at volume_fraction={c!r}")
+    fractions = _scrm_schedule(c, growth_steps, start_fraction, schedule)
     given = dict(shake_radius=shake_radius, max_trials=max_trials, method=method, order=order, adaptive=adaptive,
                  adapt_shakes=adapt_shakes, adapt_factor=adapt_factor, target_acceptance=target_acceptance)
     shake_options = {k: v for k, v in given.items() if v is not None}
@@ -693,12 +751,58 @@ def scrm(
     ss = as_seed_sequence(seed)
     children = ss.spawn(2 * len(fractions) + 1)
     wall0 = time.perf_counter()
+    pk, stages = _scrm_stages(sizes, fractions, children, stage_shakes, global_shakes, growth_rate, pack_options,
+                              shake_options, progress)
+    meta = dict(pk.meta)
+    meta["scrm"] = {
+        "generator": "polypack.scrm",
+        "volume_fraction": c,
+        "schedule": fractions,
+        "stage_shakes": stage_shakes,
+        "global_shakes": global_shakes,
+        "growth_rate": growth_rate,
+        "stages": stages,
+        "seed": seed_record(ss),
+        "shake_options": {k: (v if isinstance(v, (int, float, str, bool, type(None))) else repr(v))
+                          for k, v in shake_options.items() if k not in ("monitor", "tuning", "monitor_every")},
+        "wall_time": time.perf_counter() - wall0,
+    }
+    pk.meta = meta
+    return pk
+
+
+def _scrm_schedule(c, growth_steps, start_fraction, schedule):
+    """The checked stage fractions of :func:`scrm` up to its target volume fraction ``c``."""
+    if schedule is None:
+        growth_steps = _check_int("growth_steps", growth_steps, 1)
+        c0 = 0.8 * c if start_fraction is None else float(start_fraction)
+        if not (0 < c0 <= c):
+            raise InvalidInputError(f"start_fraction={start_fraction!r}: must be in (0, volume_fraction]")
+        fractions = [c] if growth_steps == 1 else list(np.linspace(c0, c, growth_steps))
+    else:
+        fractions = [float(x) for x in schedule]
+        if not fractions or any(not (0 < x < 1) for x in fractions):
+            raise InvalidInputError(f"schedule={schedule!r}: needs fractions in (0, 1)")
+        if any(b <= a for a, b in zip(fractions, fractions[1:])):
+            raise InvalidInputError(f"schedule={schedule!r}: fractions must increase")
+        if abs(fractions[-1] - c) > 1e-12:
+            raise InvalidInputError(f"schedule ends at {fractions[-1]!r}; it must end at volume_fraction={c!r}")
+    return fractions
+
+
+def _scrm_stages(sizes, fractions, children, stage_shakes, global_shakes, growth_rate, pack_options, shake_options,
+                 progress):
+    """Grow to each stage fraction and shake, then the final global shakes; ``(pack, stage records)``.
+
+    One deferred section over all stages: a Ctrl-C stops the running growth or shake at its
+    next safe point, and scrm never carries on with a stage after an interrupted one.
+    """
+    from . import pack
+
     stages = []
     pk = sizes
     bar = progress_bar(total=len(fractions) + 1, desc="scrm", progress=progress, unit="stage")
     where = "before the first growth stage"
-    # One deferred section over all stages: a Ctrl-C stops the running growth or shake at
-    # its next safe point, and scrm never carries on with a stage after an interrupted one
     try:
         with _interrupt.deferred():
             for s_i, frac in enumerate(fractions):
@@ -722,16 +826,7 @@ def scrm(
                                acceptance_rate=sh["acceptance_rate"][-1])
                 stages.append(rec)
                 bar.update(1)
-                if status == "jammed" and reached < frac - 1e-9:
-                    raise InfeasibleError(
-                        f"growth jammed at volume fraction {reached:.4f} below the stage target {frac:.4f}; "
-                        "lower volume_fraction or use a gentler schedule"
-                    )
-                if status not in ("target", "jammed"):
-                    raise InfeasibleError(
-                        f"growth stage {s_i + 1} ended with status {status!r} at volume fraction {reached:.4f} "
-                        f"(target {frac:.4f})"
-                    )
+                _check_stage(status, reached, frac, s_i)
             where = f"in the {global_shakes} final global shakes"
             _interrupt.check(f"scrm interrupted {where}", partial=pk)
             pk = shake(pk, global_shakes=global_shakes, seed=children[-1], progress=False, **shake_options)
@@ -744,19 +839,18 @@ def scrm(
                           else str(exc) or f"scrm interrupted {where}", partial=part) from None
     finally:
         bar.close()
-    meta = dict(pk.meta)
-    meta["scrm"] = {
-        "generator": "polypack.scrm",
-        "volume_fraction": c,
-        "schedule": fractions,
-        "stage_shakes": stage_shakes,
-        "global_shakes": global_shakes,
-        "growth_rate": growth_rate,
-        "stages": stages,
-        "seed": seed_record(ss),
-        "shake_options": {k: (v if isinstance(v, (int, float, str, bool, type(None))) else repr(v))
-                          for k, v in shake_options.items() if k not in ("monitor", "tuning", "monitor_every")},
-        "wall_time": time.perf_counter() - wall0,
-    }
-    pk.meta = meta
-    return pk
+    return pk, stages
+
+
+def _check_stage(status, reached, frac, s_i):
+    """Refuse a growth stage that jammed below its target or ended on a budget."""
+    if status == "jammed" and reached < frac - 1e-9:
+        raise InfeasibleError(
+            f"growth jammed at volume fraction {reached:.4f} below the stage target {frac:.4f}; "
+            "lower volume_fraction or use a gentler schedule"
+        )
+    if status not in ("target", "jammed"):
+        raise InfeasibleError(
+            f"growth stage {s_i + 1} ended with status {status!r} at volume fraction {reached:.4f} "
+            f"(target {frac:.4f})"
+        )

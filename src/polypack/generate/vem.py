@@ -615,7 +615,6 @@ def vem(
         :class:`polypack.errors.Interrupted`; no partial pack is returned.
     """
     from .. import _interrupt
-    from .._kernels import vem as V
 
     radii, species = _structure_radii(n, radius)
     ns = radii.size
@@ -629,6 +628,63 @@ def vem(
         structure_contacts=structure_contacts, stiffness=stiffness, restructure=restructure,
         restructure_time=restructure_time, restructure_window=restructure_window,
         restructure_potential=restructure_potential, restructure_bonds=restructure_bonds))
+    _check_restructure(o, radii)
+    n_void = int(round(o["void_ratio"] * ns))
+    if n_void < 1:
+        raise InvalidInputError(f"void_ratio={void_ratio!r}: gives {n_void} voids for N={ns}; need at least 1")
+
+    ss = as_seed_sequence(seed)
+    s_fluid, s_void = ss.spawn(2)
+    t_wall = time.perf_counter()
+    r0 = float(np.mean(radii))
+    red = radii / r0
+    asm, box, skin = _vem_assembly(red, ns, n_void, o, structure_contacts, s_fluid, s_void)
+    bar = progress_bar(total=None, desc=f"vem N_V/N={o['void_ratio']:g}", progress=progress, unit="stage")
+    with _interrupt.deferred():
+        try:
+            series, reason, stage, steps_total = _grow_voids(asm, red, box, ns, n_void, r0, skin, o, bar)
+            _interrupt.check(f"vem interrupted after stage {stage}")
+            fin = _finish_structure(asm, red, box, ns, skin, o, final_relaxation, ss)
+        finally:
+            bar.close()
+    wpos = np.mod(fin["wpos"], box)
+    wpos = np.minimum(wpos, np.nextafter(box, 0))
+    wall = time.perf_counter() - t_wall
+    scale = r0
+    run = {
+        "bonds_at_jamming": int(fin["n_bonds_jam"]),
+        "mass_scaling": "one common mass for all spheres; time step 0.2 sqrt(m / k_max)",
+        "stop_reason": reason,
+        "stages": len(series["stage"]),
+        "final_void_diameter": fin["void_diameter"] * r0,
+        "coordination_at_jamming": series["coordination"][-1],
+        "final_relaxation_steps": int(fin["fsteps"]),
+        "final_relaxation_ratio": float(fin["fratio"]),
+        "separation_sweeps": int(fin["sweeps"]),
+        "separation_converged": bool(fin["status"] == fin["done"]),
+        "overlap_before_separation": float(fin["worst"]),
+        "steps": int(steps_total + fin["fsteps"]),
+        "neighbour_rebuilds": int(asm.rebuilds),
+        "wall_time": wall,
+        "series": series,
+    }
+    if fin["coag"] is not None:
+        run["restructure_record"] = fin["coag"]
+    meta = {"generator": "vem", "seed": seed_record(ss), "vem": _record(o, ns, n_void, r0, run)}
+    out = Packing(wpos * scale, radii, box * scale, species=species, meta=meta)
+    gap = out.min_gap()
+    out.meta["min_gap"] = float(gap)
+    if gap < -OVERLAP_TOLERANCE:
+        raise OverlapError(f"vem structure has a relative overlap {-gap:.3g} > tolerance {OVERLAP_TOLERANCE:g}")
+    if fin["status"] != fin["done"]:
+        warnings.warn("vem: overlap removal used its sweep budget", RuntimeWarning, stacklevel=2)
+    return out
+
+
+# ---------------------------------------------------------------- vem: the steps
+def _check_restructure(o, radii):
+    """The restructuring options are used only with ``restructure='coagulation'``, which needs
+    equal spheres."""
     if o["restructure"] == "none":
         for key in ("restructure_time", "restructure_window", "restructure_potential", "restructure_bonds"):
             if o[key] != VEM_DEFAULTS[key]:
@@ -636,20 +692,14 @@ def vem(
     elif not np.all(radii == radii[0]):
         raise InvalidInputError(f"restructure='coagulation': needs equal spheres (the Brownian engine is "
                                 f"monodisperse); radii range {radii.min():g} ... {radii.max():g}")
-    phi, vr = o["volume_fraction"], o["void_ratio"]
-    n_void = int(round(vr * ns))
-    if n_void < 1:
-        raise InvalidInputError(f"void_ratio={void_ratio!r}: gives {n_void} voids for N={ns}; need at least 1")
-    gf, rv0, kn, ks = o["growth_factor"], o["initial_void_radius"], o["normal_stiffness"], o["shear_stiffness"]
-    knv, ksv, mu, alpha = o["void_normal_stiffness"], o["void_shear_stiffness"], o["friction"], o["damping"]
-    tol, jam = o["ratio_tolerance"], o["jam_overlap"]
-    check_every, stage_steps, max_stages = o["check_every"], o["stage_steps"], o["max_stages"]
 
-    ss = as_seed_sequence(seed)
-    s_fluid, s_void = ss.spawn(2)
-    t_wall = time.perf_counter()
-    r0 = float(np.mean(radii))
-    red = radii / r0
+
+def _vem_assembly(red, ns, n_void, o, structure_contacts, s_fluid, s_void):
+    """``(assembly, box, skin)`` in reduced units (mean radius 1): the box of Eq. (5) of
+    003_873b69fc71c74cf6.txt, the fluid structure, the voids in its holes and their contacts."""
+    phi, rv0 = o["volume_fraction"], o["initial_void_radius"]
+    kn, ks, knv, ksv = o["normal_stiffness"], o["shear_stiffness"], o["void_normal_stiffness"], o["void_shear_stiffness"]
+    mu, alpha = o["friction"], o["damping"]
     box_len = (float(np.sum(4.0 / 3.0 * np.pi * red**3)) / phi) ** (1.0 / 3.0)  # Eq. (5) of 003_873b69fc71c74cf6.txt (reduced units)
     box = np.full(3, box_len)
     rmax = float(red.max())
@@ -672,95 +722,79 @@ def vem(
     else:
         asm = _Assembly(pos, allr, box, ns, 1.0, ks / kn, knv / kn, ksv / kn, mu, alpha, skin,
                         sticky=structure_contacts == "sticky")
+    return asm, box, skin
+
+
+def _grow_voids(asm, red, box, ns, n_void, r0, skin, o, bar):
+    """Grow the voids stage by stage, relaxing after each, until their mean relative overlap
+    reaches ``jam_overlap``; returns ``(series, stop reason, stages, steps)``."""
+    from .. import _interrupt
+    from .._kernels import vem as V
+
+    gf, tol, jam = o["growth_factor"], o["ratio_tolerance"], o["jam_overlap"]
+    check_every, stage_steps, max_stages = o["check_every"], o["stage_steps"], o["max_stages"]
+    box_len = float(box[0])
+    rmax = float(red.max())
     vol = float(np.prod(box))
     vs = float(np.sum(4.0 / 3.0 * np.pi * red**3))
     series = {k: [] for k in ("stage", "void_diameter", "total_fraction", "coordination", "bonds", "void_contacts",
                               "void_overlap", "structure_overlap", "ratio", "steps")}
-    reason = None
-    bar = progress_bar(total=None, desc=f"vem N_V/N={vr:g}", progress=progress, unit="stage")
     steps_total = 0
-    with _interrupt.deferred():
-        try:
-            stage = 0
-            while True:
-                _interrupt.check(f"vem interrupted at stage {stage}")
-                rv = float(asm.radii[ns]) if n_void else 0.0
-                if 2.0 * (2.0 * max(rmax, rv * gf) + skin) >= box_len:
-                    raise InfeasibleError(
-                        f"n={ns}: the voids (radius {rv:.3g} r0) outgrow the box of {box_len:.3g} r0 before "
-                        "jamming; use more spheres or a larger void_ratio")
-                asm.grow_voids(gf)
-                stage += 1
-                steps, ratio = asm.relax(tol, check_every, stage_steps, overlap_floor=UNLOADED)
-                steps_total += steps
-                st = asm.stats()
-                rv = float(asm.radii[ns])
-                c = 2.0 * st[V.C_STRUCT_CONTACTS] / ns
-                vov = st[V.C_VOID_OVERLAP_SUM] / n_void  # summed relative void-contact overlap per void
-                sov = st[V.C_STRUCT_OVERLAP_SUM] / st[V.C_STRUCT_CONTACTS] if st[V.C_STRUCT_CONTACTS] else 0.0
-                total = (vs + n_void * 4.0 / 3.0 * np.pi * rv**3) / vol
-                for key, val in (("stage", stage), ("void_diameter", 2.0 * rv * r0), ("total_fraction", total),
-                                 ("coordination", c), ("bonds", 2.0 * asm.bond_keys.size / ns), ("void_contacts", 2.0 * st[V.C_VOID_CONTACTS] / (ns + n_void)),
-                                 ("void_overlap", vov), ("structure_overlap", sov), ("ratio", ratio),
-                                 ("steps", steps)):
-                    series[key].append(float(val) if key != "stage" and key != "steps" else int(val))
-                bar.update(1)
-                bar.set_postfix_str(f"d_V={2 * rv * r0:.3g} C={c:.2f} ratio={ratio:.2g} Φ_tot={total:.3f}")
-                if vov >= jam:
-                    reason = (f"jammed: mean relative void overlap {vov:.3g} >= jam_overlap={jam:g} after the "
-                              f"relaxation of stage {stage}")
-                    break
-                if stage >= max_stages:
-                    raise InfeasibleError(f"vem: the voids did not jam within max_stages={max_stages} stages")
-            _interrupt.check(f"vem interrupted after stage {stage}")
-            void_d = 2.0 * float(asm.radii[ns]) * r0
-            c_jam = series["coordination"][-1]
-            n_bonds_jam = asm.bond_keys.size
-            asm.drop_voids()
-            fsteps, fratio = 0, float("nan")
-            if final_relaxation == "dynamics":
-                asm.p[asm.K.P_MODE] = asm.K.MODE_RELAX
-                fsteps, fratio = asm.relax(tol, check_every, 20 * stage_steps, overlap_floor=UNLOADED)
-                steps_total += fsteps
-            _interrupt.check("vem interrupted in the final relaxation")
-            wpos, status, sweeps, worst = _separate(asm.pos, red, box, ns, skin)
-            coag = None
-            if o["restructure"] == "coagulation":
-                wpos, coag = _coagulate(wpos, float(red[0]), box, o, ss.spawn(1)[0])
-                _interrupt.check("vem interrupted in the coagulation")
-                wpos, status, s2, _ = _separate(wpos, red, box, ns, skin)
-                sweeps += s2
-        finally:
-            bar.close()
-    wpos = np.mod(wpos, box)
-    wpos = np.minimum(wpos, np.nextafter(box, 0))
-    wall = time.perf_counter() - t_wall
-    scale = r0
-    run = {
-        "bonds_at_jamming": int(n_bonds_jam),
-        "mass_scaling": "one common mass for all spheres; time step 0.2 sqrt(m / k_max)",
-        "stop_reason": reason,
-        "stages": len(series["stage"]),
-        "final_void_diameter": void_d,
-        "coordination_at_jamming": c_jam,
-        "final_relaxation_steps": int(fsteps),
-        "final_relaxation_ratio": float(fratio),
-        "separation_sweeps": int(sweeps),
-        "separation_converged": bool(status == V.SEPARATE_DONE),
-        "overlap_before_separation": float(worst),
-        "steps": int(steps_total),
-        "neighbour_rebuilds": int(asm.rebuilds),
-        "wall_time": wall,
-        "series": series,
-    }
-    if coag is not None:
-        run["restructure_record"] = coag
-    meta = {"generator": "vem", "seed": seed_record(ss), "vem": _record(o, ns, n_void, r0, run)}
-    out = Packing(wpos * scale, radii, box * scale, species=species, meta=meta)
-    gap = out.min_gap()
-    out.meta["min_gap"] = float(gap)
-    if gap < -OVERLAP_TOLERANCE:
-        raise OverlapError(f"vem structure has a relative overlap {-gap:.3g} > tolerance {OVERLAP_TOLERANCE:g}")
-    if status != V.SEPARATE_DONE:
-        warnings.warn("vem: overlap removal used its sweep budget", RuntimeWarning, stacklevel=2)
-    return out
+    stage = 0
+    while True:
+        _interrupt.check(f"vem interrupted at stage {stage}")
+        rv = float(asm.radii[ns]) if n_void else 0.0
+        if 2.0 * (2.0 * max(rmax, rv * gf) + skin) >= box_len:
+            raise InfeasibleError(
+                f"n={ns}: the voids (radius {rv:.3g} r0) outgrow the box of {box_len:.3g} r0 before "
+                "jamming; use more spheres or a larger void_ratio")
+        asm.grow_voids(gf)
+        stage += 1
+        steps, ratio = asm.relax(tol, check_every, stage_steps, overlap_floor=UNLOADED)
+        steps_total += steps
+        st = asm.stats()
+        rv = float(asm.radii[ns])
+        c = 2.0 * st[V.C_STRUCT_CONTACTS] / ns
+        vov = st[V.C_VOID_OVERLAP_SUM] / n_void  # summed relative void-contact overlap per void
+        sov = st[V.C_STRUCT_OVERLAP_SUM] / st[V.C_STRUCT_CONTACTS] if st[V.C_STRUCT_CONTACTS] else 0.0
+        total = (vs + n_void * 4.0 / 3.0 * np.pi * rv**3) / vol
+        for key, val in (("stage", stage), ("void_diameter", 2.0 * rv * r0), ("total_fraction", total),
+                         ("coordination", c), ("bonds", 2.0 * asm.bond_keys.size / ns),
+                         ("void_contacts", 2.0 * st[V.C_VOID_CONTACTS] / (ns + n_void)),
+                         ("void_overlap", vov), ("structure_overlap", sov), ("ratio", ratio),
+                         ("steps", steps)):
+            series[key].append(float(val) if key != "stage" and key != "steps" else int(val))
+        bar.update(1)
+        bar.set_postfix_str(f"d_V={2 * rv * r0:.3g} C={c:.2f} ratio={ratio:.2g} Φ_tot={total:.3f}")
+        if vov >= jam:
+            reason = (f"jammed: mean relative void overlap {vov:.3g} >= jam_overlap={jam:g} after the "
+                      f"relaxation of stage {stage}")
+            return series, reason, stage, steps_total
+        if stage >= max_stages:
+            raise InfeasibleError(f"vem: the voids did not jam within max_stages={max_stages} stages")
+
+
+def _finish_structure(asm, red, box, ns, skin, o, final_relaxation, ss):
+    """Remove the voids, relax (``final_relaxation``), separate the structure spheres and, with
+    ``restructure='coagulation'``, restructure it; a dict of the positions and statistics."""
+    from .. import _interrupt
+    from .._kernels import vem as V
+
+    void_diameter = 2.0 * float(asm.radii[ns])
+    n_bonds_jam = asm.bond_keys.size
+    asm.drop_voids()
+    fsteps, fratio = 0, float("nan")
+    if final_relaxation == "dynamics":
+        asm.p[asm.K.P_MODE] = asm.K.MODE_RELAX
+        fsteps, fratio = asm.relax(o["ratio_tolerance"], o["check_every"], 20 * o["stage_steps"],
+                                   overlap_floor=UNLOADED)
+    _interrupt.check("vem interrupted in the final relaxation")
+    wpos, status, sweeps, worst = _separate(asm.pos, red, box, ns, skin)
+    coag = None
+    if o["restructure"] == "coagulation":
+        wpos, coag = _coagulate(wpos, float(red[0]), box, o, ss.spawn(1)[0])
+        _interrupt.check("vem interrupted in the coagulation")
+        wpos, status, s2, _ = _separate(wpos, red, box, ns, skin)
+        sweeps += s2
+    return dict(wpos=wpos, status=status, done=V.SEPARATE_DONE, sweeps=sweeps, worst=worst, coag=coag,
+                void_diameter=void_diameter, n_bonds_jam=n_bonds_jam, fsteps=fsteps, fratio=fratio)

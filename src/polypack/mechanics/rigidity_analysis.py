@@ -424,12 +424,70 @@ def rigidity(network, elastic=None, *, rotations=True, central=False, force_frac
     """
     import time
 
-    from .._kernels import network as knl
-    from .._kernels import rigidity as kr
-    from .elastic import ElasticTensor, elastic_tensor
+    t0 = time.perf_counter()
+    ff, samples = _check_rigidity(network, elastic, rotations, central, force_fraction, samples, rigid_tol)
+    n_all, m_all = network.n, network.n_bonds
+    nd = 3 if (central or not rotations) else 6
+    cons = 1 if central else 3
+
+    # ------------------------------------------------------------- zero modes
+    if central:
+        et = None
+        rattlers, label, z, dmet, active, floppy, floppy_floating = _zero_modes_central(network, samples, nd)
+    else:
+        rattlers, label, z, dmet, active, floppy, floppy_floating, et = _zero_modes_bonded(
+            network, elastic, rotations, samples, nd)
+
+    # --------------------------------------------------------- participation
+    zz = np.where(np.isfinite(z), z, 0.0)
+    part_all = np.sum(dmet[None] * zz * zz, axis=2).mean(axis=0)
+    participation = np.where(rattlers, np.nan, part_all)
+    # the scale of a zero mode in a sample: D-normalized modes move an unknown by ~ D^-1/2
+    # (the sample's own RMS would blow round-off up to O(1) where there is no zero mode)
+    dpos = dmet[~rattlers]
+    dpos = dpos[dpos > 0]
+    amp = np.full(samples, float(np.sqrt(np.mean(1.0 / dpos))) if dpos.size else 0.0)
+
+    # ---------------------------------------------------------- rigid clusters
+    if central:
+        raw, rigid_bonds, spans_any, perc, bsize = _rigid_bodies_central(network, rattlers, zz, amp, rigid_tol)
+    else:
+        raw, rigid_bonds, spans_any, perc = _rigid_clusters(network, rattlers, zz, amp, rigid_tol, nd)
+        bsize = None
+    cluster, cluster_sizes = _relabel_clusters(raw, rattlers, bsize)
+
+    # ------------------------------------------------------- counting (index theorem)
+    bi, bj = network.i, network.j
+    n_a = int(active.sum())
+    on_a = active[bi] & active[bj]
+    k_a = int(np.unique(np.where(active, label, -1)[active]).size)
+    maxwell = nd * n_a - cons * int(on_a.sum()) - 3 * k_a
+    sss = int(floppy - maxwell)
+
+    # ------------------------------------------------- backbone, non-affinity, fabric
+    normals = np.asarray(network.normal)
+    bb = _backbone(network, et, active, on_a, ff)
+    fab = fabric_tensor(normals)
+    return Rigidity(
+        central=bool(central), rotations=bool(rotations) and not central, n_particles=n_all, n_bonds=m_all,
+        coordination=float(network.coordination), isostatic_coordination=2.0 * nd / cons,
+        floppy_modes=int(floppy), floppy_modes_floating=int(floppy_floating), states_of_self_stress=sss,
+        participation=participation, cluster=cluster, cluster_sizes=cluster_sizes, percolating=bool(perc),
+        spans=np.asarray(spans_any, bool), rigid_bonds=rigid_bonds, rattlers=rattlers, active=active,
+        force_fraction=ff, backbone_bonds=bb["bonds"], backbone=bb["part"], backbone_fraction=bb["frac"],
+        backbone_bond_fraction=bb["bfrac"], backbone_coordination=bb["z"], backbone_coordination_modes=bb["zm"],
+        nonaffinity=bb["gam"], nonaffinity_modes=bb["gam_m"], fabric=fab, fabric_anisotropy=deviatoric_norm(fab),
+        backbone_fabric=bb["fab"], backbone_fabric_anisotropy=bb["fab_an"], shear_fabric=_fourth_shear(normals),
+        backbone_shear_fabric=bb["shear"], samples=samples, elastic=et, seconds=time.perf_counter() - t0,
+    )
+
+
+# ---------------------------------------------------------------- rigidity: the steps
+def _check_rigidity(network, elastic, rotations, central, force_fraction, samples, rigid_tol):
+    """Refuse what :func:`rigidity` cannot analyse; ``(force_fraction, samples)`` normalised."""
+    from .elastic import ElasticTensor
     from .network import BondNetwork
 
-    t0 = time.perf_counter()
     if not isinstance(network, BondNetwork):
         raise InvalidInputError(f"network must be a BondNetwork, got {type(network).__name__}")
     if network.dim != 3:
@@ -451,116 +509,136 @@ def rigidity(network, elastic=None, *, rotations=True, central=False, force_frac
         raise InvalidInputError("elastic does not belong to this network (particle or bond counts differ)")
     if elastic is not None and not central and bool(elastic.rotations) != bool(rotations):
         raise InvalidInputError(f"elastic was made with rotations={elastic.rotations}, rigidity got {rotations}")
-    n_all, m_all = network.n, network.n_bonds
-    nd = 3 if (central or not rotations) else 6
-    cons = 1 if central else 3
+    return ff, samples
 
-    # ------------------------------------------------------------- zero modes
-    et = None
-    if central:
-        rattlers = network.bonds_per_particle == 0
-        res = _nullspace(network, ~rattlers, rotations=False, central=True, samples=samples)
-        label, spans = res["label"], res["spans"]
-        wrap = spans.any(axis=1)
-        floating = np.flatnonzero(~wrap)
-        rot = _remove_rigid_rotations(network, res, floating, nd, True) if floating.size else 0
-        z, dmet = res["z"], res["d"]
-        active = (label >= 0) & (wrap[np.maximum(label, 0)] if wrap.size else False)
-        # the count over the wrapping clusters alone (elastic_tensor's definition)
-        if floating.size:
-            res_a = _nullspace(network, active, rotations=False, central=True, samples=0)
-            floppy = res_a["count"]
-            floppy_floating = res["count"] - floppy - rot
-        else:
-            floppy, floppy_floating = res["count"], 0
+
+def _zero_modes_central(network, samples, nd):
+    """Zero modes of the central-force network (translations only, one constraint per bond):
+    ``(rattlers, label, samples z, metric, active, floppy, floppy_floating)``."""
+    rattlers = network.bonds_per_particle == 0
+    res = _nullspace(network, ~rattlers, rotations=False, central=True, samples=samples)
+    label, spans = res["label"], res["spans"]
+    wrap = spans.any(axis=1)
+    floating = np.flatnonzero(~wrap)
+    rot = _remove_rigid_rotations(network, res, floating, nd, True) if floating.size else 0
+    z, dmet = res["z"], res["d"]
+    active = (label >= 0) & (wrap[np.maximum(label, 0)] if wrap.size else False)
+    # the count over the wrapping clusters alone (elastic_tensor's definition)
+    if floating.size:
+        res_a = _nullspace(network, active, rotations=False, central=True, samples=0)
+        floppy = res_a["count"]
+        floppy_floating = res["count"] - floppy - rot
     else:
-        rattlers = np.asarray(network.rattlers).copy()
-        et = elastic
-        if et is None or getattr(et, "floppy_samples", None) is None:
-            if et is None:
-                et = elastic_tensor(network, rotations=rotations, floppy_samples=samples)
-        label_b, spans_b = network.components(backbone=True)
-        wrap = spans_b.any(axis=1)
-        active = (label_b >= 0) & (wrap[np.maximum(label_b, 0)] if wrap.size else False)
-        if not active.any():  # no cluster wraps the box: nothing relaxes under strain (floppy)
-            z = np.full((samples, n_all, nd), np.nan)
-            dmet = np.zeros((n_all, nd))
-            floppy = 0
-        elif getattr(et, "floppy_samples", None) is not None and et.floppy_modes is not None:
-            z = np.array(et.floppy_samples, dtype=np.float64)
-            dmet = np.array(et.floppy_metric, dtype=np.float64)
-            floppy = int(et.floppy_modes)
-        else:  # an iterative solver made the tensor: factorize here
-            res_a = _nullspace(network, active, rotations=rotations, central=False, samples=samples)
-            z, dmet, floppy = res_a["z"], res_a["d"], res_a["count"]
-        floating_mask = ~rattlers & ~active
-        floppy_floating = 0
-        if floating_mask.any():
-            res_f = _nullspace(network, floating_mask, rotations=rotations, central=False, samples=samples)
-            comps = np.unique(res_f["label"][floating_mask])
-            rot = _remove_rigid_rotations(network, res_f, comps, nd, False)
-            floppy_floating = res_f["count"] - rot
-            z[:, floating_mask] = res_f["z"][:, floating_mask]
-            dmet[floating_mask] = res_f["d"][floating_mask]
+        floppy, floppy_floating = res["count"], 0
+    return rattlers, label, z, dmet, active, floppy, floppy_floating
 
-    # --------------------------------------------------------- participation
-    zz = np.where(np.isfinite(z), z, 0.0)
-    part_all = np.sum(dmet[None] * zz * zz, axis=2).mean(axis=0)
-    participation = np.where(rattlers, np.nan, part_all)
-    # the scale of a zero mode in a sample: D-normalized modes move an unknown by ~ D^-1/2
-    # (the sample's own RMS would blow round-off up to O(1) where there is no zero mode)
-    dpos = dmet[~rattlers]
-    dpos = dpos[dpos > 0]
-    amp = np.full(samples, float(np.sqrt(np.mean(1.0 / dpos))) if dpos.size else 0.0)
 
-    # ---------------------------------------------------------- rigid clusters
+def _zero_modes_bonded(network, elastic, rotations, samples, nd):
+    """Zero modes of the contact-bond network (from the elastic tensor's factorization when it
+    drew them, else factorized here), the floating clusters' apart:
+    ``(rattlers, label, samples z, metric, active, floppy, floppy_floating, elastic tensor)``."""
+    from .elastic import elastic_tensor
+
+    n_all = network.n
+    rattlers = np.asarray(network.rattlers).copy()
+    et = elastic
+    if et is None or getattr(et, "floppy_samples", None) is None:
+        if et is None:
+            et = elastic_tensor(network, rotations=rotations, floppy_samples=samples)
+    label_b, spans_b = network.components(backbone=True)
+    wrap = spans_b.any(axis=1)
+    active = (label_b >= 0) & (wrap[np.maximum(label_b, 0)] if wrap.size else False)
+    if not active.any():  # no cluster wraps the box: nothing relaxes under strain (floppy)
+        z = np.full((samples, n_all, nd), np.nan)
+        dmet = np.zeros((n_all, nd))
+        floppy = 0
+    elif getattr(et, "floppy_samples", None) is not None and et.floppy_modes is not None:
+        z = np.array(et.floppy_samples, dtype=np.float64)
+        dmet = np.array(et.floppy_metric, dtype=np.float64)
+        floppy = int(et.floppy_modes)
+    else:  # an iterative solver made the tensor: factorize here
+        res_a = _nullspace(network, active, rotations=rotations, central=False, samples=samples)
+        z, dmet, floppy = res_a["z"], res_a["d"], res_a["count"]
+    floating_mask = ~rattlers & ~active
+    floppy_floating = 0
+    if floating_mask.any():
+        res_f = _nullspace(network, floating_mask, rotations=rotations, central=False, samples=samples)
+        comps = np.unique(res_f["label"][floating_mask])
+        rot = _remove_rigid_rotations(network, res_f, comps, nd, False)
+        floppy_floating = res_f["count"] - rot
+        z[:, floating_mask] = res_f["z"][:, floating_mask]
+        dmet[floating_mask] = res_f["d"][floating_mask]
+    return rattlers, label_b, z, dmet, active, floppy, floppy_floating, et
+
+
+def _rigid_bodies_central(network, rattlers, zz, amp, rigid_tol):
+    """Rigid bodies of a central-force network (clusters of rigid triangles; a bond in none is a
+    bar): ``(raw label, rigid bonds, spanned axes, percolating, body sizes)``."""
+    from .._kernels import network as knl
+    from .._kernels import rigidity as kr
+
+    n_all, m_all = network.n, network.n_bonds
     bi, bj = network.i, network.j
     live = (~rattlers[bi] & ~rattlers[bj])
-    if central:
-        tb, tlab, k = kr.central_triangles(n_all, bi, bj, np.ascontiguousarray(network.branch),
-                                           live.astype(np.int64), np.ascontiguousarray(zz[:, :, :3]), amp,
-                                           float(rigid_tol))
-        # rigid bodies: the bonds of each triangle cluster; a bond in no rigid triangle is a bar
-        body_bonds = [np.unique(tb[tlab == c].ravel()) for c in range(k)]
-        in_tri = np.zeros(m_all, bool)
-        in_tri[tb.ravel()] = True
-        body_bonds += [np.array([c]) for c in np.flatnonzero(live & ~in_tri)]
-        bsize = np.array([np.unique(np.concatenate([bi[b], bj[b]])).size for b in body_bonds], np.int64)
-        raw = np.full(n_all, -1, np.int64)
-        for c in np.argsort(bsize, kind="stable"):  # a hinge particle keeps its largest body
-            b = body_bonds[c]
-            raw[np.concatenate([bi[b], bj[b]])] = c
-        rigid_bonds = live.copy()  # a bar keeps its own length: each bond is rigid by itself
-        spans_any = np.zeros(3, bool)
-        perc = False
-        for c in np.argsort(-bsize, kind="stable")[:3]:  # the three largest bodies, each on its own bonds
-            mask_b = np.zeros(m_all, np.int64)
-            mask_b[body_bonds[c]] = 1
-            _, _, sp_c = knl.components(n_all, bi, bj, network.shift, mask_b)
-            s_ax = sp_c.astype(bool).any(axis=0)
-            perc = perc or bool(s_ax.all())
-            if s_ax.sum() > spans_any.sum():
-                spans_any = s_ax
+    tb, tlab, k = kr.central_triangles(n_all, bi, bj, np.ascontiguousarray(network.branch),
+                                       live.astype(np.int64), np.ascontiguousarray(zz[:, :, :3]), amp,
+                                       float(rigid_tol))
+    # rigid bodies: the bonds of each triangle cluster; a bond in no rigid triangle is a bar
+    body_bonds = [np.unique(tb[tlab == c].ravel()) for c in range(k)]
+    in_tri = np.zeros(m_all, bool)
+    in_tri[tb.ravel()] = True
+    body_bonds += [np.array([c]) for c in np.flatnonzero(live & ~in_tri)]
+    bsize = np.array([np.unique(np.concatenate([bi[b], bj[b]])).size for b in body_bonds], np.int64)
+    raw = np.full(n_all, -1, np.int64)
+    for c in np.argsort(bsize, kind="stable"):  # a hinge particle keeps its largest body
+        b = body_bonds[c]
+        raw[np.concatenate([bi[b], bj[b]])] = c
+    rigid_bonds = live.copy()  # a bar keeps its own length: each bond is rigid by itself
+    spans_any = np.zeros(3, bool)
+    perc = False
+    for c in np.argsort(-bsize, kind="stable")[:3]:  # the three largest bodies, each on its own bonds
+        mask_b = np.zeros(m_all, np.int64)
+        mask_b[body_bonds[c]] = 1
+        _, _, sp_c = knl.components(n_all, bi, bj, network.shift, mask_b)
+        s_ax = sp_c.astype(bool).any(axis=0)
+        perc = perc or bool(s_ax.all())
+        if s_ax.sum() > spans_any.sum():
+            spans_any = s_ax
+    return raw, rigid_bonds, spans_any, perc, bsize
+
+
+def _rigid_clusters(network, rattlers, zz, amp, rigid_tol, nd):
+    """Rigid clusters of a contact-bond network (bonds whose ends share the rotation of every
+    zero-mode sample): ``(raw label, rigid bonds, spanned axes, percolating)``."""
+    from .._kernels import network as knl
+
+    n_all = network.n
+    bi, bj = network.i, network.j
+    live = (~rattlers[bi] & ~rattlers[bj])
+    if nd == 6:
+        dw = zz[:, bj, 3:] - zz[:, bi, 3:]
+        defect = np.sqrt(np.sum(dw * dw, axis=2)) / np.maximum(amp, 1e-300)[:, None]
+        rigid_bonds = live & np.all(defect <= rigid_tol, axis=0)
     else:
-        if nd == 6:
-            dw = zz[:, bj, 3:] - zz[:, bi, 3:]
-            defect = np.sqrt(np.sum(dw * dw, axis=2)) / np.maximum(amp, 1e-300)[:, None]
-            rigid_bonds = live & np.all(defect <= rigid_tol, axis=0)
-        else:
-            rigid_bonds = live.copy()
-        raw, _, sp_c = knl.components(n_all, bi, bj, network.shift, rigid_bonds.astype(np.int64))
-        sp_c = sp_c.astype(bool)
-        perc = bool(sp_c.all(axis=1).any()) if sp_c.size else False
-        spans_any = sp_c[np.argmax(sp_c.sum(axis=1))] if sp_c.shape[0] else np.zeros(3, bool)
-        # particles in no rigid bond: clusters of one
-        lone = (raw < 0) & ~rattlers
-        nxt = int(raw.max()) + 1 if raw.size and raw.max() >= 0 else 0
-        raw = raw.copy()
-        raw[lone] = nxt + np.arange(int(lone.sum()))
-    # relabel by size, largest first; rattlers -1
+        rigid_bonds = live.copy()
+    raw, _, sp_c = knl.components(n_all, bi, bj, network.shift, rigid_bonds.astype(np.int64))
+    sp_c = sp_c.astype(bool)
+    perc = bool(sp_c.all(axis=1).any()) if sp_c.size else False
+    spans_any = sp_c[np.argmax(sp_c.sum(axis=1))] if sp_c.shape[0] else np.zeros(3, bool)
+    # particles in no rigid bond: clusters of one
+    lone = (raw < 0) & ~rattlers
+    nxt = int(raw.max()) + 1 if raw.size and raw.max() >= 0 else 0
+    raw = raw.copy()
+    raw[lone] = nxt + np.arange(int(lone.sum()))
+    return raw, rigid_bonds, spans_any, perc
+
+
+def _relabel_clusters(raw, rattlers, bsize=None):
+    """``(cluster, sizes)``: labels by size, largest first, rattlers -1 (``bsize``: the body sizes
+    of a central-force network, whose bodies may share hinge particles)."""
     raw = np.where(rattlers, -1, raw)
     valid = raw >= 0
-    if central:  # bodies may share hinge particles: sizes count all of their particles
+    if bsize is not None:  # bodies may share hinge particles: sizes count all of their particles
         uniq = np.arange(bsize.size)
         counts = bsize
     else:
@@ -568,18 +646,16 @@ def rigidity(network, elastic=None, *, rotations=True, central=False, force_frac
     order = np.lexsort((uniq, -counts))
     new = np.empty(uniq.size, np.int64)
     new[order] = np.arange(uniq.size)
-    cluster = np.full(n_all, -1, np.int64)
+    cluster = np.full(raw.shape[0], -1, np.int64)
     cluster[valid] = new[np.searchsorted(uniq, raw[valid])]
-    cluster_sizes = np.asarray(counts)[order].astype(np.int64)
+    return cluster, np.asarray(counts)[order].astype(np.int64)
 
-    # ------------------------------------------------------- counting (index theorem)
-    n_a = int(active.sum())
-    on_a = active[bi] & active[bj]
-    k_a = int(np.unique(np.where(active, label if central else label_b, -1)[active]).size)
-    maxwell = nd * n_a - cons * int(on_a.sum()) - 3 * k_a
-    sss = int(floppy - maxwell)
 
-    # ------------------------------------------------- backbone, non-affinity, fabric
+def _backbone(network, et, active, on_a, ff):
+    """The load-bearing backbone per unit strain (bonds whose relaxed force exceeds ``ff`` of the
+    mean), its coordination, the non-affinity and the backbone fabric; all None without a tensor."""
+    bi, bj = network.i, network.j
+    n_all, m_all = network.n, network.n_bonds
     normals = np.asarray(network.normal)
     bb = bb_part = bb_frac = bb_bfrac = bb_z = bb_zm = gam = gam_m = bfab = bfab_an = bshear = None
     if et is not None and not active.any():
@@ -629,16 +705,5 @@ def rigidity(network, elastic=None, *, rotations=True, central=False, force_frac
         bfab = fabric_tensor(normals, union)
         bfab_an = deviatoric_norm(bfab) if np.all(np.isfinite(bfab)) else None
         bshear = np.array([_fourth_shear(normals, bb[3 + p])[p] for p in range(3)])
-    fab = fabric_tensor(normals)
-    return Rigidity(
-        central=bool(central), rotations=bool(rotations) and not central, n_particles=n_all, n_bonds=m_all,
-        coordination=float(network.coordination), isostatic_coordination=2.0 * nd / cons,
-        floppy_modes=int(floppy), floppy_modes_floating=int(floppy_floating), states_of_self_stress=sss,
-        participation=participation, cluster=cluster, cluster_sizes=cluster_sizes, percolating=bool(perc),
-        spans=np.asarray(spans_any, bool), rigid_bonds=rigid_bonds, rattlers=rattlers, active=active,
-        force_fraction=ff, backbone_bonds=bb, backbone=bb_part, backbone_fraction=bb_frac,
-        backbone_bond_fraction=bb_bfrac, backbone_coordination=bb_z, backbone_coordination_modes=bb_zm,
-        nonaffinity=gam, nonaffinity_modes=gam_m, fabric=fab, fabric_anisotropy=deviatoric_norm(fab),
-        backbone_fabric=bfab, backbone_fabric_anisotropy=bfab_an, shear_fabric=_fourth_shear(normals),
-        backbone_shear_fabric=bshear, samples=samples, elastic=et, seconds=time.perf_counter() - t0,
-    )
+    return dict(bonds=bb, part=bb_part, frac=bb_frac, bfrac=bb_bfrac, z=bb_z, zm=bb_zm, gam=gam, gam_m=gam_m,
+                fab=bfab, fab_an=bfab_an, shear=bshear)
