@@ -132,22 +132,26 @@ def pair_time_below(dx, dy, dz, dvx, dvy, dvz, G, sig0, best):
     the square root and division are skipped and ``inf`` returned.  In the prediction
     loop (keep the smallest time) this changes nothing but the cost of the neighbours
     that cannot be next (issue 33).  Inlined into :func:`_predict`.
+
+    The usual outcomes (separating and not growing into each other, or approaching but
+    not before ``best``) are tested first as one combined condition: a branch on the
+    sign of ``B`` alone is a coin toss per neighbour, which the processor mispredicts
+    half of the time.  The results are those of :func:`pair_time` wherever it is below
+    ``best`` (tests/test_edmd_hot.py).
     """
     A = dvx * dvx + dvy * dvy + dvz * dvz - G * G
     B = dx * dvx + dy * dvy + dz * dvz - sig0 * G
     C = dx * dx + dy * dy + dz * dz - sig0 * sig0
+    if (A >= 0.0) & ((B >= 0.0) | ((C > 0.0) & (C >= best * (-2.0 * B) * (1.0 + 1e-9)))):
+        return INF
     if B < 0.0:
         if C <= 0.0:
             return 0.0
-        if A >= 0.0 and C >= best * (-2.0 * B) * (1.0 + 1e-9):
-            return INF
         D = B * B - A * C
         if D < 0.0:
             return INF
         return C / (-B + math.sqrt(D))
-    if A >= 0.0:
-        return INF
-    D = B * B - A * C
+    D = B * B - A * C  # A < 0 here: they grow into each other
     if D < 0.0:
         D = 0.0
     return (B + math.sqrt(D)) / (-A)
@@ -306,21 +310,63 @@ def _slab_lists(pi, pj, n, level, nlev, pad):
     return off, nn, nbr
 
 
+# columns of the per-sphere records ``P`` of the event loop: position 0..2, velocity 3..5,
+# own time, growth speed (8 doubles: one 64-byte cache line per sphere)
+R_X = 0
+R_V = 3
+R_T = 6
+R_G = 7
+N_REC = 8
+
+
+@njit(cache=True)
+def _records(n):
+    """An (n, N_REC) float64 array whose rows start on 64-byte boundaries (one cache line each)."""
+    buf = np.empty(N_REC * (n + 1))
+    first = ((64 - buf.ctypes.data % 64) % 64) // 8
+    return buf[first:first + N_REC * n].reshape((n, N_REC))
+
+
+@njit(cache=True)
+def _to_records(P, x, v, tl, g):
+    """Copy the state of every sphere into its record."""
+    for i in range(x.shape[0]):
+        for k in range(3):
+            P[i, R_X + k] = x[i, k]
+            P[i, R_V + k] = v[i, k]
+        P[i, R_T] = tl[i]
+        P[i, R_G] = g[i]
+
+
+@njit(cache=True)
+def _from_records(P, x, v, tl):
+    """Copy positions, velocities and own times back out of the records."""
+    for i in range(x.shape[0]):
+        for k in range(3):
+            x[i, k] = P[i, R_X + k]
+            v[i, k] = P[i, R_V + k]
+        tl[i] = P[i, R_T]
+
+
 @njit(cache=True, _nrt=False)  # no reference counting (see _event_loop)
-def _predict(i, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c):
-    """Sync sphere ``i`` to ``t`` and schedule its next event (collision or shell exit)."""
-    dt = t - tl[i]
-    xi0 = x[i, 0] + v[i, 0] * dt
-    xi1 = x[i, 1] + v[i, 1] * dt
-    xi2 = x[i, 2] + v[i, 2] * dt
-    x[i, 0] = xi0
-    x[i, 1] = xi1
-    x[i, 2] = xi2
-    tl[i] = t
-    vi0 = v[i, 0]
-    vi1 = v[i, 1]
-    vi2 = v[i, 2]
-    gi = g[i]
+def _predict(i, t, P, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c):
+    """Sync sphere ``i`` to ``t`` and schedule its next event (collision or shell exit).
+
+    ``P`` holds one 64-byte record per sphere (position, velocity, own time, growth
+    speed: columns ``R_X..R_G``), so a neighbour costs one cache line, not four.
+    """
+    dt = t - P[i, R_T]
+    xi0 = P[i, 0] + P[i, 3] * dt
+    xi1 = P[i, 1] + P[i, 4] * dt
+    xi2 = P[i, 2] + P[i, 5] * dt
+    P[i, 0] = xi0
+    P[i, 1] = xi1
+    P[i, 2] = xi2
+    P[i, R_T] = t
+    vi0 = P[i, 3]
+    vi1 = P[i, 4]
+    vi2 = P[i, 5]
+    gi = P[i, R_G]
     # shell exit: the sphere stays inside ball(xb_i, rho_i) while
     # |x_i - xb_i| + g_i t <= rho_i; exact first crossing of the quadratic
     d0 = min_image(xi0 - xb[i, 0], box[0])
@@ -331,12 +377,12 @@ def _predict(i, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_
     base = off[i]
     for k in range(base, base + nn[i]):
         j = nbr[k]
-        dtj = t - tl[j]
-        dx = min_image(x[j, 0] + v[j, 0] * dtj - xi0, box[0])
-        dy = min_image(x[j, 1] + v[j, 1] * dtj - xi1, box[1])
-        dz = min_image(x[j, 2] + v[j, 2] * dtj - xi2, box[2])
-        G = gi + g[j]
-        s = pair_time_below(dx, dy, dz, v[j, 0] - vi0, v[j, 1] - vi1, v[j, 2] - vi2, G, G * t, best)
+        dtj = t - P[j, R_T]
+        dx = min_image(P[j, 0] + P[j, 3] * dtj - xi0, box[0])
+        dy = min_image(P[j, 1] + P[j, 4] * dtj - xi1, box[1])
+        dz = min_image(P[j, 2] + P[j, 5] * dtj - xi2, box[2])
+        G = gi + P[j, R_G]
+        s = pair_time_below(dx, dy, dz, P[j, 3] - vi0, P[j, 4] - vi1, P[j, 5] - vi2, G, G * t, best)
         if s < best:
             best = s
             partner = j
@@ -461,15 +507,15 @@ def _list_pair(i, j, off, nn, nbr):
 
 
 @njit(cache=True, _nrt=False)  # no reference counting (see _event_loop)
-def _local_rebuild(i, rho_new, x, box, xb, rho, off, nn, nbr, level, nlev, rho_max_lv, nc, coff, head, nxt, prv,
+def _local_rebuild(i, rho_new, P, box, xb, rho, off, nn, nbr, level, nlev, rho_max_lv, nc, coff, head, nxt, prv,
                    cell):
-    """New shell for sphere ``i`` at its current position; symmetric list update.
+    """New shell for sphere ``i`` at its current position (``P[i, 0:3]``); symmetric list update.
 
     Returns False if a neighbour slab overflowed (the caller then rebuilds globally).
     """
     _unlist(i, off, nn, nbr)
     for k in range(3):
-        xb[i, k] = x[i, k]
+        xb[i, k] = P[i, k]
     rho[i] = rho_new
     lv_i = level[i]
     if rho_new > rho_max_lv[lv_i]:
@@ -713,7 +759,7 @@ LOOP_REBUILD = 2  # global rebuild (a neighbour slab overflowed)
 
 
 @njit(cache=True, _nrt=False)  # no reference counting (see _event_loop)
-def _event_loop(x, v, tl, g, box, state, hist, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c, hk, hi, hpos, level,
+def _event_loop(P, box, state, hist, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c, hk, hi, hpos, level,
                 nlev, rho_max_lv, nc, coff, head, nxt, prv, cell, fs, ks, t_stop, max_coll, p_max, window, t_ref,
                 alpha, dilute, max_events, sync_every, g_margin, rho_cap):
     """The event loop of :func:`run_chunk` between two full synchronisations.
@@ -729,7 +775,7 @@ def _event_loop(x, v, tl, g, box, state, hist, off, nn, nbr, xb, rho, cnt, ev_t,
     events, w_coll, since_sync, pad, n_hist, status)``.  Returns ``LOOP_STOP``,
     ``LOOP_SYNC`` or ``LOOP_REBUILD``.
     """
-    n = x.shape[0]
+    n = P.shape[0]
     t = fs[0]
     w_vir = fs[1]
     w_ke = fs[2]
@@ -764,15 +810,15 @@ def _event_loop(x, v, tl, g, box, state, hist, off, nn, nbr, xb, rho, cnt, ev_t,
         j = ev_p[i]
         if j < 0:
             # shell exit: new shell and neighbour list for sphere i only
-            dt = t - tl[i]
+            dt = t - P[i, R_T]
             for k in range(3):
-                x[i, k] += v[i, k] * dt
-            tl[i] = t
-            if g[i] * t >= rho_cap * (1.0 - 1e-9):
+                P[i, k] += P[i, 3 + k] * dt
+            P[i, R_T] = t
+            if P[i, R_G] * t >= rho_cap * (1.0 - 1e-9):
                 status = BOX_LIMIT
                 break
-            rho_new = _shell_radius(g[i], t, shell_reach(t, t_ref, alpha, dilute), g_margin, rho_cap)
-            ok = _local_rebuild(i, rho_new, x, box, xb, rho, off, nn, nbr, level, nlev, rho_max_lv, nc, coff,
+            rho_new = _shell_radius(P[i, R_G], t, shell_reach(t, t_ref, alpha, dilute), g_margin, rho_cap)
+            ok = _local_rebuild(i, rho_new, P, box, xb, rho, off, nn, nbr, level, nlev, rho_max_lv, nc, coff,
                                 head, nxt, prv, cell)
             state[S_LOCAL_REBUILDS] += 1
             if not ok:
@@ -780,38 +826,38 @@ def _event_loop(x, v, tl, g, box, state, hist, off, nn, nbr, xb, rho, cnt, ev_t,
                 state[S_REBUILDS] += 0  # overflow: global rebuild with more room
                 out = LOOP_REBUILD
                 break
-            _predict(i, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
+            _predict(i, t, P, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
             _heap_update(hk, hi, hpos, i, ev_t[i], n)
             continue
         if cnt[j] != ev_c[i]:
-            _predict(i, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
+            _predict(i, t, P, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
             _heap_update(hk, hi, hpos, i, ev_t[i], n)
             continue
         # valid collision of i and j at time t
         for p in (i, j):
-            dt = t - tl[p]
+            dt = t - P[p, R_T]
             for k in range(3):
-                x[p, k] += v[p, k] * dt
-            tl[p] = t
-        dx = min_image(x[j, 0] - x[i, 0], box[0])
-        dy = min_image(x[j, 1] - x[i, 1], box[1])
-        dz = min_image(x[j, 2] - x[i, 2], box[2])
+                P[p, k] += P[p, 3 + k] * dt
+            P[p, R_T] = t
+        dx = min_image(P[j, 0] - P[i, 0], box[0])
+        dy = min_image(P[j, 1] - P[i, 1], box[1])
+        dz = min_image(P[j, 2] - P[i, 2], box[2])
         d = math.sqrt(dx * dx + dy * dy + dz * dz)
-        G = g[i] + g[j]
+        G = P[i, R_G] + P[j, R_G]
         if d > 0.0:
             nx = dx / d
             ny = dy / d
             nz = dz / d
-            u = (v[j, 0] - v[i, 0]) * nx + (v[j, 1] - v[i, 1]) * ny + (v[j, 2] - v[i, 2]) * nz
+            u = (P[j, 3] - P[i, 3]) * nx + (P[j, 4] - P[i, 4]) * ny + (P[j, 5] - P[i, 5]) * nz
             J = G - u
             if J <= 0.0:
                 J = 1e-12 * (1.0 + abs(u))
-            v[i, 0] -= J * nx
-            v[i, 1] -= J * ny
-            v[i, 2] -= J * nz
-            v[j, 0] += J * nx
-            v[j, 1] += J * ny
-            v[j, 2] += J * nz
+            P[i, 3] -= J * nx
+            P[i, 4] -= J * ny
+            P[i, 5] -= J * nz
+            P[j, 3] += J * nx
+            P[j, 4] += J * ny
+            P[j, 5] += J * nz
             w_ke += ke * (t - t_last)
             t_last = t
             ke += J * (u + J)
@@ -821,9 +867,9 @@ def _event_loop(x, v, tl, g, box, state, hist, off, nn, nbr, xb, rho, cnt, ev_t,
         coll += 1
         w_coll += 1
         since_sync += 1
-        _predict(i, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
+        _predict(i, t, P, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
         _heap_update(hk, hi, hpos, i, ev_t[i], n)
-        _predict(j, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
+        _predict(j, t, P, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
         _heap_update(hk, hi, hpos, j, ev_t[j], n)
         if since_sync >= sync_every:
             out = LOOP_SYNC
@@ -954,6 +1000,7 @@ def run_chunk(x, v, g, box, state, params, hist):
     nc, coff, head, nxt, prv, cell = _grid_build(x, level, box, gmax_lv, nlev, n)
     fs = np.empty(5)
     ks = np.empty(7, np.int64)
+    P = _records(n)
 
     while True:
         if need_rebuild or need_sync:
@@ -981,10 +1028,11 @@ def run_chunk(x, v, g, box, state, params, hist):
                 off, nn, nbr = build_lists(x, rho, box, level, nlev, pad)
                 nc, coff, head, nxt, prv, cell = _grid_build(xb, level, box, rho_max_lv, nlev, n)
                 state[S_REBUILDS] += 1
+            _to_records(P, x, v, tl, g)
             for i in range(n):
                 cnt[i] = 0
             for i in range(n):
-                _predict(i, t, x, v, tl, g, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
+                _predict(i, t, P, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
             _heap_build(hk, hi, hpos, ev_t, n)
             need_rebuild = False
             need_sync = False
@@ -1001,9 +1049,10 @@ def run_chunk(x, v, g, box, state, params, hist):
         ks[4] = pad
         ks[5] = n_hist
         ks[6] = status
-        out = _event_loop(x, v, tl, g, box, state, hist, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c, hk, hi, hpos,
+        out = _event_loop(P, box, state, hist, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c, hk, hi, hpos,
                           level, nlev, rho_max_lv, nc, coff, head, nxt, prv, cell, fs, ks, t_stop, max_coll, p_max,
                           window, t_ref, alpha, dilute, max_events, sync_every, g_margin, rho_cap)
+        _from_records(P, x, v, tl)
         t = fs[0]
         w_vir = fs[1]
         w_ke = fs[2]
