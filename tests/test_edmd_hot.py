@@ -28,9 +28,16 @@ def test_pair_time_below_is_pair_time_where_it_is_below_best():
     a[:, 3:6] = -a[:, :3] / 3.0 * rng.uniform(0.0, 2.0, m)[:, None] + 0.7 * rng.normal(size=(m, 3))
     a[:, 6] = rng.uniform(0.0, 0.1, m)  # growth speed of the contact distance
     a[:, 7] = rng.uniform(0.5, 2.0, m)  # contact distance now
+    # a quarter of the pairs grow faster than they move (A < 0): separating ones meet again too
+    q = m // 4
+    a[:q, 3:6] = 0.3 * rng.normal(size=(q, 3))
+    a[:q, 6] = rng.uniform(0.5, 3.0, q)
     exact = _both(a, np.full(m, np.inf))[:, 0]
     finite = np.isfinite(exact) & (exact > 0)
     assert finite.sum() > 2000  # the test reaches the square-root branch often
+    dv2 = (a[:, 3:6] ** 2).sum(axis=1)
+    separating = (a[:, :3] * a[:, 3:6]).sum(axis=1) - a[:, 7] * a[:, 6] >= 0
+    assert (finite & separating & (dv2 < a[:, 6] ** 2)).sum() > 200  # ... and the root of separating pairs
     # best just above, at and just below the true time, and random ones
     shortcut = 0
     for best in (exact * (1 + 1e-12), exact, exact * (1 - 1e-12), rng.uniform(0, 5, m)):
