@@ -196,26 +196,40 @@ def test_deposit_statistics_3d_on_a_simple_cubic_lattice(walls):
     np.testing.assert_allclose(st.profile_mean_diameter, 1.0)
 
 
-@pytest.mark.parametrize("case", ["wide_periodic", "ratio5_walls", "bidisperse_periodic", "equal_walls"])
+@pytest.mark.parametrize("case", ["wide_periodic", "ratio5_walls", "bidisperse_periodic", "equal_walls",
+                                  "ratio7_periodic", "ratio10_walls", "classes_periodic"])
 def test_pruned_search_equals_the_exhaustive_search(case):
     """The lower bounds, thresholds, caches and quick rejections that prune the per-sphere search
     (envelope levels, circle height window, _blocked_near) never change the pack: the same deposit
     as searching every alive sphere in full for every sphere (search_all).  Polydisperse positions
     and supports agree to the bit; equal spheres touch four or more spheres in ordered patches, where
     the same point may be reached from another triple of supports (positions then agree to 1e-12,
-    a few ulps of the geometry, not the 1e-3 of the nearest other pocket)."""
+    a few ulps of the geometry, not the 1e-3 of the nearest other pocket).  Issue 35: bidisperse 1:7 and 1:10
+    streams and ten radius classes (one cache slot per radius; the fallback under overhangs pruned and
+    cached as well).  Known limit of the oracle: where many small spheres tile a bare floor, positions tie
+    (equal heights) and the exhaustive search's own choice can depend on the order of its searches (6 large
+    and 300 small spheres on 4 x 4, seed 11 of this test, first at sphere 161 with cover_levels=0); the
+    ratio-7 case here has no such tie."""
     rng = np.random.default_rng(11)
     radii, width, periodic = {
         "wide_periodic": (rng.uniform(0.35, 0.65, 300), (6.0, 6.0), True),
         "ratio5_walls": (rng.uniform(0.1, 0.5, 250), (4.0, 5.0), False),
         "bidisperse_periodic": (rng.choice([0.2, 0.5], 300), (5.0, 5.0), True),
         "equal_walls": (np.full(250, 0.5), (5.0, 5.0), False),
+        # issue 35: bidisperse 1:7 and 1:10 streams (a fifth of the volume small) use one cache slot per radius;
+        # the small spheres take the overhang fallback, whose search is now pruned and cached as well
+        "ratio7_periodic": (np.random.default_rng(5).permutation(np.r_[np.full(12, 0.5), np.full(250, 0.5 / 7)]),
+                            (3.0, 3.0), True),
+        "ratio10_walls": (rng.permutation(np.r_[np.full(5, 0.5), np.full(400, 0.05)]), (2.5, 3.0), False),
+        # ten radius classes (a discretised grading): ten slots
+        "classes_periodic": (rng.choice(np.linspace(0.1, 0.5, 10), 300), (4.0, 4.0), True),
     }[case]
     pos_all, sup_all, st_all = deposit_arrays_3d(radii, width, periodic, progress=False, search_all=True)
     for levels in (0, 8):
         pos, sup, st = deposit_arrays_3d(radii, width, periodic, progress=False, cover_levels=levels)
         assert st["candidate_searches"] < st_all["candidate_searches"]  # the pruning did prune
-        if case == "equal_walls":
+        if case == "equal_walls" or case.startswith("ratio") and case != "ratio5_walls":
+            # bidisperse: equal small spheres also meet four at a point (the same position from another triple)
             np.testing.assert_allclose(pos, pos_all, rtol=0, atol=1e-12)
         else:
             np.testing.assert_array_equal(pos, pos_all)

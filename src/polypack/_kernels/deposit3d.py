@@ -65,6 +65,14 @@ Pruning (none of it changes the pack: ``SEARCH_ALL`` turns it off, and the tests
 * **Quick rejection**: a candidate is first tested against the owner and the neighbours
   already gathered for it (with twice the tolerance, so it only rejects what the full
   envelope test would reject) before the full test over the alive spheres.
+* **One cache per radius** (issue 35): the best owned candidate (or "none below a bound") is
+  kept per alive sphere and per radius class (:func:`make_cache`: one slot per distinct radius
+  up to 16), so a bidisperse or discretised stream, which alternates radii, keeps the searches
+  of every class; a slot of radius ``r_c`` is forgotten when a sphere of radius ``r`` lands
+  within ``r_s + 2 r_c + r`` of its owner (the reach of a candidate plus that of a blocker).
+* **The fallback pruned** (issue 35): the search under overhangs is thresholded, ordered and
+  cached the same way (its caches are also forgotten when a neighbour dies, since only alive
+  spheres support a fallback position), and the all-sphere overlap test allocates nothing.
 
 Support codes (``support`` array, three per sphere): ``>= 0`` a sphere index, ``FLOOR``,
 ``WALL_X0``, ``WALL_X1``, ``WALL_Y0``, ``WALL_Y1``, ``NO_SUPPORT`` (a periodic seam used by the tie
@@ -89,6 +97,16 @@ WALL_Y1 = -5
 NO_SUPPORT = -6
 _SEAM_X = -7  # internal: periodic seam x = 0 (reported as NO_SUPPORT)
 _SEAM_Y = -8
+
+# fields of the per-radius candidate cache (cache_f[s, slot, :]) of deposit_spheres: the strict search
+# (reachable by a vertical drop) first, then the search under overhangs (the fallback)
+C_R = 0  # radius the strict fields are for (-1: invalid)
+C_Z = 1  # best owned strict candidate z, x, y (z = inf: none below the bound)
+C_B = 4  # lower bound on the owned strict candidates: the best height, or the threshold of the search
+C_UZ = 5  # lowest reachable unstable point z, x, y (read only when C_B = inf: searched without threshold)
+C_NR = 8  # radius the fallback fields are for; then best z, x, y and bound as for the strict fields
+N_CACHE_F = 13
+N_CACHE_I = 6  # supports of the best strict candidate, then of the best fallback candidate
 
 
 class Deposit3DStatus(IntEnum):
@@ -411,7 +429,7 @@ def _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, n
     x_lo, x_hi, y_lo, y_hi = _window(pos[s, 0], pos[s, 1], reach, hcell, ncx, ncy, per)
     m = 0
     mh = 0  # higher neighbours: only for the quick rejection of candidates (_blocked_near)
-    own = s if thr < np.inf else -1  # quick rejection and height window: thresholded strict searches only
+    own = s if thr < np.inf else -1  # quick rejection and height window: thresholded searches only
     for qx in range(x_lo, x_hi + 1):
         ax = qx % ncx
         for qy in range(y_lo, y_hi + 1):
@@ -443,13 +461,14 @@ def _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, n
     sx = pos[s, 0]
     sy = pos[s, 1]
     sz = pos[s, 2]
-    if strict and thr < np.inf:
-        # height window of a strict candidate owned by s: on the envelope, hence not below s's centre
-        # (by more than the grazing slack of the admissibility test), and below the threshold
-        # (within the tie tolerance).  A candidate on s and neighbour a lies on the circle where
-        # their dilated spheres meet: a neighbour whose circle misses the window gives no
-        # candidate with s except on the floor (marked nb[a, 5] = 0).
-        zlo = sz - 4.0 * math.sqrt(tol) * Rs
+    if thr < np.inf:
+        # height window of a candidate owned by s: below the threshold (within the tie tolerance)
+        # and, strict, on the envelope, hence not below s's centre (by more than the grazing slack
+        # of the admissibility test; a candidate under an overhang has no lower limit).  A
+        # candidate on s and neighbour a lies on the circle where their dilated spheres meet: a
+        # neighbour whose circle misses the window gives no candidate with s except on the floor
+        # (marked nb[a, 5] = 0).
+        zlo = sz - 4.0 * math.sqrt(tol) * Rs if strict else -np.inf
         zhi = thr + 4.0 * tol * r
         for a in range(m):
             d2a = nb[a, 0] * nb[a, 0] + nb[a, 1] * nb[a, 1] + nb[a, 2] * nb[a, 2]
@@ -508,8 +527,9 @@ def _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, n
                 p[0] = sx + u * ex0 + v * ey0 + sg * w * ez0
                 p[1] = sy + u * ex1 + v * ey1 + sg * w * ez1
                 p[2] = sz + u * ex2 + v * ey2 + sg * w * ez2
-                _offer(p, r, s, int(nb[a, 4]), int(nb[b, 4]), pos, rad, L, per, tol, strict, head, nxt, hcell,
-                       ncx, ncy, rmax, best, bsup, nrm, own, Rs, nb, m, nbh, mh, grid)
+                if p[2] <= best[0] + tol * r:  # else not better than the best (_better): skip the call
+                    _offer(p, r, s, int(nb[a, 4]), int(nb[b, 4]), pos, rad, L, per, tol, strict, head, nxt, hcell,
+                           ncx, ncy, rmax, best, bsup, nrm, own, Rs, nb, m, nbh, mh, grid)
                 if w == 0.0:
                     break
     # --- two spheres and a plane: s, j, plane
@@ -570,8 +590,9 @@ def _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, n
                 p[0] = sx + off[0]
                 p[1] = sy + off[1]
                 p[2] = sz + off[2]
-                _offer(p, r, sup_s, sup_a, code, pos, rad, L, per, tol, strict, head, nxt, hcell,
-                       ncx, ncy, rmax, best, bsup, nrm, own, Rs, nb, m, nbh, mh, grid)
+                if p[2] <= best[0] + tol * r:  # else not better than the best (_better): skip the call
+                    _offer(p, r, sup_s, sup_a, code, pos, rad, L, per, tol, strict, head, nxt, hcell,
+                           ncx, ncy, rmax, best, bsup, nrm, own, Rs, nb, m, nbh, mh, grid)
                 if hh == 0.0:
                     break
     # --- one sphere and two planes: s, plane, plane
@@ -613,8 +634,9 @@ def _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, n
                 p[0] = sx + off[0]
                 p[1] = sy + off[1]
                 p[2] = sz + off[2]
-                _offer(p, r, sup_s, planes[q1], planes[q2], pos, rad, L, per, tol, strict, head, nxt, hcell,
-                       ncx, ncy, rmax, best, bsup, nrm, own, Rs, nb, m, nbh, mh, grid)
+                if p[2] <= best[0] + tol * r:  # else not better than the best (_better): skip the call
+                    _offer(p, r, sup_s, planes[q1], planes[q2], pos, rad, L, per, tol, strict, head, nxt, hcell,
+                           ncx, ncy, rmax, best, bsup, nrm, own, Rs, nb, m, nbh, mh, grid)
                 if rt == 0.0:
                     break
 
@@ -773,7 +795,30 @@ def _min_cover_levels(k, pos, rad, covl, reach, nlev, hc, mx, my, L, per, out):
 
 
 @njit(cache=True)
-def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_i, cov, grid):
+def _forget_overhang(k, pos, rad, L, per, head, nxt, hcell, ncx, ncy, rmax, cache_f, slot_r, cmargin):
+    """Invalidate the fallback caches of the alive spheres that may have had dead sphere ``k`` as a support.
+
+    A neighbour ``k`` of owner ``s`` for radius ``r_c`` is within ``r_s + 2 r_c + r_k`` of it.
+    """
+    x_lo, x_hi, y_lo, y_hi = _window(pos[k, 0], pos[k, 1], rad[k] + 3.0 * rmax, hcell, ncx, ncy, per)
+    for qx in range(x_lo, x_hi + 1):
+        ax = qx % ncx
+        for qy in range(y_lo, y_hi + 1):
+            ay = qy % ncy
+            s = head[ax * ncy + ay]
+            while s >= 0:
+                d0 = _mi(pos[s, 0] - pos[k, 0], L[0], per[0])
+                d1 = _mi(pos[s, 1] - pos[k, 1], L[1], per[1])
+                h2 = d0 * d0 + d1 * d1
+                for c in range(cache_f.shape[1]):
+                    if h2 <= (rad[s] + rad[k] + 2.0 * slot_r[c] + cmargin) ** 2:
+                        cache_f[s, c, C_NR] = -1.0
+                s = nxt[s]
+
+
+@njit(cache=True)
+def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_i, cov, grid, slot_of, slot_r,
+                    cache_f, cache_i):
     """Place spheres ``start .. stop-1`` (radii ``rad``, in order) on the deposit of spheres ``0 .. start-1``.
 
     Parameters
@@ -807,6 +852,11 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
     grid : tuple ``(gd, head, ent_next, ent_sph, stamp, counters, buf, tops)``
         The all-sphere cell grid of :mod:`.roll3d` (:func:`make_grid_3d`; spheres ``< start``
         registered), for the overlap test of the overhang fallback and the last-resort roll.
+    slot_of, slot_r, cache_f, cache_i
+        Per-radius candidate caches (:func:`make_cache`): the slot of each sphere's radius, the
+        largest radius of each slot, and per alive sphere and slot the fields ``C_*`` (float) and
+        the supports of the cached candidates (int).  Columns 0-3 and 5 of ``work_f`` are unused
+        (the single cache before issue 35).
 
     Returns
     -------
@@ -878,9 +928,13 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
     nbh = np.empty((max(n, 16), 4))
     nrm = np.zeros((3, 3))
     p = np.empty(3)
+    nslots = cache_f.shape[1]
+    cmargin = 1e-6 * rmax
+    dead = np.empty(max(n, 1), np.int64)
     status = 0
     for i in range(start, stop):
         r = rad[i]
+        c = slot_of[i]
         lev = _level_of(r, rho, nlev) if nlev > 0 else 0
         gbest[0] = np.inf
         gbest[1] = np.inf
@@ -889,11 +943,13 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
         for strict in (True, False):
             _global_candidates(r, pos, rad, L, per, tol, strict, planes, nplanes, head, nxt, hcell, ncx, ncy, rmax,
                                gbest, gsup, nrm, grid)
-            if strict:
-                # lower bound on each alive sphere's owned candidates for this radius
-                keys = np.empty(n_alive)
-                for q in range(n_alive):
-                    s = alive[q]
+            fo = C_R if strict else C_NR  # this pass's fields of the slot cache
+            io = 0 if strict else 3
+            # lower bound on each alive sphere's owned candidates for this radius
+            keys = np.empty(n_alive)
+            for q in range(n_alive):
+                s = alive[q]
+                if strict:
                     lb = work_f[s, 4] + (r - rmin)
                     if nlev > 0:
                         # the bound at the level of r: U_r >= U_rho + (r - rho) near s
@@ -905,25 +961,38 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
                         zb = pos[s, 2] - 2.0 * math.sqrt(tol) * (r + rad[s])
                         if zb > lb:
                             lb = zb
-                    if work_f[s, 3] == r and work_f[s, 5] > lb:
-                        lb = work_f[s, 5]  # cached: the best owned height, or none below it
-                    keys[q] = lb
-                order = np.argsort(keys)
-            else:
+                else:
+                    lb = r * (1.0 - tol)  # under an overhang: only the floor bounds a position
+                if (strict or not search_all) and cache_f[s, c, fo] == r and cache_f[s, c, fo + 4] > lb:
+                    # cached: the best owned height, or none below it (search_all: the order of the searches
+                    # only, which decides between candidates equal within the tie tolerance, as before)
+                    lb = cache_f[s, c, fo + 4]
+                keys[q] = lb
+            if search_all and not strict:
                 order = np.arange(n_alive)
+            else:
+                order = np.argsort(keys)
             for qq in range(n_alive):
                 s = alive[order[qq]]
-                if strict and not search_all and keys[order[qq]] > gbest[0] + tol * r:
+                if not search_all and keys[order[qq]] > gbest[0] + tol * r:
                     break  # every remaining candidate lies above the best one
-                if strict and not search_all and work_f[s, 3] == r and work_f[s, 0] < np.inf:
-                    best[0] = work_f[s, 0]
-                    best[1] = work_f[s, 1]
-                    best[2] = work_f[s, 2]
-                    bsup[0] = bsup_all[s, 0]
-                    bsup[1] = bsup_all[s, 1]
-                    bsup[2] = bsup_all[s, 2]
+                valid = not search_all and cache_f[s, c, fo] == r
+                if valid and cache_f[s, c, fo + 1] < np.inf:
+                    best[0] = cache_f[s, c, fo + 1]
+                    best[1] = cache_f[s, c, fo + 2]
+                    best[2] = cache_f[s, c, fo + 3]
+                    bsup[0] = cache_i[s, c, io]
+                    bsup[1] = cache_i[s, c, io + 1]
+                    bsup[2] = cache_i[s, c, io + 2]
+                elif valid and cache_f[s, c, fo + 4] == np.inf:
+                    # searched without a threshold since the last change near s: no owned candidate at all
+                    best[1] = np.inf
+                    if strict and cache_f[s, c, C_UZ] < gbest[3]:
+                        gbest[3] = cache_f[s, c, C_UZ]
+                        gbest[4] = cache_f[s, c, C_UZ + 1]
+                        gbest[5] = cache_f[s, c, C_UZ + 2]
                 else:
-                    thr = gbest[0] + tol * r if strict and not search_all else np.inf
+                    thr = gbest[0] + tol * r if not search_all else np.inf
                     floor_ok = (not strict) or search_all or work_f[s, 4] <= rmin + tol * rmin
                     best[3] = np.inf
                     _candidates_of(s, r, pos, rad, L, per, tol, strict, planes, nplanes, head, nxt, hcell, ncx,
@@ -933,20 +1002,26 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
                         gbest[4] = best[4]
                         gbest[5] = best[5]
                     state[Deposit3DState.N_RECOMPUTED] += 1
-                    if strict:
-                        work_f[s, 3] = r
+                    if best[1] < np.inf:
+                        state[Deposit3DState.N_IMPROVED] += 1
+                    if strict or not search_all:
+                        cache_f[s, c, fo] = r
                         if best[1] < np.inf:
-                            state[Deposit3DState.N_IMPROVED] += 1
-                            work_f[s, 0] = best[0]
-                            work_f[s, 1] = best[1]
-                            work_f[s, 2] = best[2]
-                            work_f[s, 5] = best[0]
-                            bsup_all[s, 0] = bsup[0]
-                            bsup_all[s, 1] = bsup[1]
-                            bsup_all[s, 2] = bsup[2]
+                            cache_f[s, c, fo + 1] = best[0]
+                            cache_f[s, c, fo + 2] = best[1]
+                            cache_f[s, c, fo + 3] = best[2]
+                            cache_f[s, c, fo + 4] = best[0]
+                            cache_i[s, c, io] = bsup[0]
+                            cache_i[s, c, io + 1] = bsup[1]
+                            cache_i[s, c, io + 2] = bsup[2]
                         else:
-                            work_f[s, 0] = np.inf
-                            work_f[s, 5] = thr  # no owned candidate below thr
+                            cache_f[s, c, fo + 1] = np.inf
+                            cache_f[s, c, fo + 4] = thr  # no owned candidate below thr
+                            if strict:
+                                # complete only without a threshold (thr = inf), the only case it is read
+                                cache_f[s, c, C_UZ] = best[3]
+                                cache_f[s, c, C_UZ + 1] = best[4]
+                                cache_f[s, c, C_UZ + 2] = best[5]
                 if best[1] < np.inf and _better(best[0], best[1], best[2], gbest[0], gbest[1], gbest[2], tol * r):
                     gbest[0] = best[0]
                     gbest[1] = best[1]
@@ -998,8 +1073,11 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
         alive[n_alive] = i
         apos[i] = n_alive
         n_alive += 1
-        work_f[i, 3] = -1.0
+        for cc in range(nslots):
+            cache_f[i, cc, C_R] = -1.0
+            cache_f[i, cc, C_NR] = -1.0
         reach = r + 3.0 * rmax
+        n_dead = 0
         reach_cov = r + 2.0 * rmax + 1.5 * (hc[0] + hc[1])
         x_lo, x_hi, y_lo, y_hi = _window(p[0], p[1], reach, hcell, ncx, ncy, per)
         for qx in range(x_lo, x_hi + 1):
@@ -1012,8 +1090,13 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
                     d0 = _mi(pos[k, 0] - p[0], L[0], per[0])
                     d1 = _mi(pos[k, 1] - p[1], L[1], per[1])
                     h2 = d0 * d0 + d1 * d1
-                    if h2 <= (rad[k] + reach) ** 2:
-                        work_f[k, 3] = -1.0  # cache invalid
+                    for cc in range(nslots):
+                        # a candidate of k for the slot's radius r_c lies within r_k + r_c of k, and
+                        # the spheres that decide it within r_c + r_j of it: the new sphere matters
+                        # within r_k + 2 r_c + r (as a support, a blocker or an overlap)
+                        if h2 <= (rad[k] + r + 2.0 * slot_r[cc] + cmargin) ** 2:
+                            cache_f[k, cc, C_R] = -1.0
+                            cache_f[k, cc, C_NR] = -1.0
                     # the cells raised by _cover_levels lie within r + rmax of p; k's bounds read the
                     # cells within r_k + rmax of k: elsewhere they are unchanged
                     if h2 <= (rad[k] + reach_cov) ** 2:
@@ -1022,6 +1105,8 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
                         if nlev > 0:
                             _min_cover_levels(k, pos, rad, covl, lreach, nlev, hc, mx, my, L, per, work_f[k, 6:])
                         if low > pos[k, 2] + rad[k] + rmin:
+                            dead[n_dead] = k
+                            n_dead += 1
                             _unlink(k, head, nxt, prv, cell)
                             q = apos[k]
                             last = alive[n_alive - 1]
@@ -1029,6 +1114,10 @@ def deposit_spheres(rad, params, pos, support, state, start, stop, work_f, work_
                             apos[last] = q
                             n_alive -= 1
                     k = k_next
+        for q in range(n_dead):
+            # a dead sphere no longer supports the positions under an overhang of its alive
+            # neighbours (the fallback searches alive spheres only): forget them
+            _forget_overhang(dead[q], pos, rad, L, per, head, nxt, hcell, ncx, ncy, rmax, cache_f, slot_r, cmargin)
         if n_alive > state[Deposit3DState.ALIVE_MAX]:
             state[Deposit3DState.ALIVE_MAX] = n_alive
         state[Deposit3DState.N_PLACED] = i + 1
@@ -1053,6 +1142,28 @@ def make_work(n, lx, ly, rmax, column_cell, levels=0):
     return work_f, work_i, cov
 
 
+def make_cache(rad, max_slots=16, max_entries=2_000_000):
+    """Per-radius candidate caches of :func:`deposit_spheres`: ``(slot_of, slot_r, cache_f, cache_i)``.
+
+    One slot per distinct radius when there are at most ``max_slots`` of them (a bidisperse or
+    discretised stream alternates radii; each keeps its own cached searches), at most
+    ``max_entries`` slot rows in all; otherwise the radii share the slots (``slot_of`` = class
+    modulo the number of slots; a slot serves the radius it was last filled for), one slot for a
+    continuous distribution.  ``slot_r``: the largest radius a slot serves (its invalidation reach).
+    """
+    rad = np.asarray(rad, dtype=np.float64)
+    n = max(rad.size, 1)
+    uniq, cls = np.unique(rad, return_inverse=True)
+    nslots = uniq.size if uniq.size <= max_slots else 1
+    nslots = max(1, min(nslots, max_entries // n))
+    slot_of = (cls % nslots).astype(np.int64)
+    slot_r = np.zeros(nslots)
+    np.maximum.at(slot_r, slot_of, rad)
+    cache_f = np.full((n, nslots, N_CACHE_F), -1.0)
+    cache_i = np.full((n, nslots, N_CACHE_I), NO_SUPPORT, np.int64)
+    return slot_of, slot_r, cache_f, cache_i
+
+
 def make_grid_3d(rad, lx, ly, periodic):
     """The all-sphere cell grid tuple of :func:`deposit_spheres` for the radii ``rad`` (all of them)."""
     from . import roll3d as kr
@@ -1073,4 +1184,5 @@ def warmup():
     support = np.zeros((n, 3), np.int64)
     state = np.zeros(Deposit3DState.N_STATE)
     work_f, work_i, cov = make_work(n, 5.0, 5.0, 0.5, 0.25, 4)
-    deposit_spheres(rad, params, pos, support, state, 0, n, work_f, work_i, cov, make_grid_3d(rad, 5.0, 5.0, True))
+    deposit_spheres(rad, params, pos, support, state, 0, n, work_f, work_i, cov, make_grid_3d(rad, 5.0, 5.0, True),
+                    *make_cache(rad))

@@ -245,24 +245,37 @@ def grid_column_top(x, y, r, gd, tops):
 
 @njit(cache=True)
 def grid_overlaps(p, r, pos, rad, gd, head, ent_next, ent_sph, stamp, counters, buf, tol):
-    """True if a sphere of radius ``r`` at ``p`` overlaps a registered sphere by more than ``tol`` (relative)."""
-    lo = np.empty(3)
-    hi = np.empty(3)
-    for a in range(3):
-        lo[a] = p[a] - r
-        hi[a] = p[a] + r
-    m = grid_gather(lo, hi, gd, head, ent_next, ent_sph, stamp, counters, buf)
-    if m < 0:
-        return True
+    """True if a sphere of radius ``r`` at ``p`` overlaps a registered sphere by more than ``tol`` (relative).
+
+    Scans the cells of the box ``p +- r`` directly and stops at the first overlap (a sphere
+    registered in several of them is tested more than once, which is cheaper than gathering
+    distinct ones; ``stamp``, ``counters`` and ``buf`` are not used: no allocation, the hot
+    test of the overhang fallback of :mod:`.deposit3d`).
+    """
     per = gd[8] > 0.5
-    for q in range(m):
-        k = buf[q]
-        d0 = _mi(p[0] - pos[k, 0], gd[0], per)
-        d1 = _mi(p[1] - pos[k, 1], gd[1], per)
-        d2 = p[2] - pos[k, 2]
-        R = r + rad[k]
-        if d0 * d0 + d1 * d1 + d2 * d2 < R * R * (1.0 - tol) ** 2:
-            return True
+    nx = int(gd[5])
+    ny = int(gd[6])
+    nz = int(gd[7])
+    x0, x1 = _axis_range(p[0] - r, p[0] + r, gd[2], nx, per)
+    y0, y1 = _axis_range(p[1] - r, p[1] + r, gd[3], ny, per)
+    z0, z1 = _axis_range(p[2] - r, p[2] + r, gd[4], nz, False)
+    t2 = (1.0 - tol) ** 2
+    for qx in range(x0, x1 + 1):
+        ax = qx % nx
+        for qy in range(y0, y1 + 1):
+            ay = qy % ny
+            c2 = (ax * ny + ay) * nz
+            for az in range(z0, z1 + 1):
+                e = head[c2 + az]
+                while e >= 0:
+                    k = ent_sph[e]
+                    d0 = _mi(p[0] - pos[k, 0], gd[0], per)
+                    d1 = _mi(p[1] - pos[k, 1], gd[1], per)
+                    d2 = p[2] - pos[k, 2]
+                    R = r + rad[k]
+                    if d0 * d0 + d1 * d1 + d2 * d2 < R * R * t2:
+                        return True
+                    e = ent_next[e]
     return False
 
 

@@ -237,6 +237,7 @@ def deposit_arrays_3d(radii, width, periodic=True, tolerance=DEFAULT_TOLERANCE, 
     state = np.zeros(int(k3.Deposit3DState.N_STATE))
     work_f, work_i, cov = k3.make_work(n, lx, ly, rmax, col, levels)
     grid = k3.make_grid_3d(rad, lx, ly, periodic)
+    slot_of, slot_r, cache_f, cache_i = k3.make_cache(rad)
     chunk = 500
     with _interrupt.deferred(), progress_bar(total=n, desc="deposit", progress=progress, unit="sphere") as bar:
         k = 0
@@ -244,7 +245,8 @@ def deposit_arrays_3d(radii, width, periodic=True, tolerance=DEFAULT_TOLERANCE, 
             if _interrupt.consume():
                 raise KeyboardInterrupt
             stop = min(n, k + chunk)
-            status = k3.deposit_spheres(rad, params, pos, support, state, k, stop, work_f, work_i, cov, grid)
+            status = k3.deposit_spheres(rad, params, pos, support, state, k, stop, work_f, work_i, cov, grid,
+                                        slot_of, slot_r, cache_f, cache_i)
             if status != k3.Deposit3DStatus.OK:
                 raise RuntimeError(
                     f"3D deposition kernel stopped with {k3.Deposit3DStatus(status).name} at sphere "
