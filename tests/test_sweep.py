@@ -341,7 +341,8 @@ def test_report_uses_the_records_rigidity(tmp_path):
 
 
 def test_sweep_writes_report_html_with_table2_beside_the_seed(tmp_path):
-    """run_sweep writes OUT/report.html: Table 2 of the seed side by side with this run's rows
+    """The sweep's OUT/report.html (written by report.build.sweep_report after run_sweep, as
+    ``polypack run`` does): Table 2 of the seed side by side with this run's rows
     (a, C, G'p, a / a_seed computed from the run's own fit.json), Figs. 2 and 6 inline."""
     import re
 
@@ -349,7 +350,11 @@ def test_sweep_writes_report_html_with_table2_beside_the_seed(tmp_path):
     study["study"]["realizations"] = 1
     study["analysis"]["pores"]["n_points"] = 2000
     out = tmp_path / "h"
-    run_sweep(study, out, progress=False, echo=lambda s: None)
+    res = run_sweep(study, out, progress=False, echo=lambda s: None)
+    from polypack.ensemble.sweep import _label
+    from polypack.report.build import sweep_report
+
+    sweep_report(out, [(v, out / _label("protocol.void_ratio", v)) for v in res], title="h")
     page = (out / "report.html").read_text()
     rows = json.loads((out / "heterogeneity" / "fit.json").read_text())["rows"]
     assert "a (seed)" in page and "C (seed)" in page and "G′p MPa (seed)" in page

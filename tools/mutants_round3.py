@@ -392,9 +392,9 @@ ROUND3 = [
            "pm(r.get(\"C\"), r.get(\"C_se\"), 2), f\"{s[2]:.2f}\" if s else",
            "pm(r.get(\"C\"), r.get(\"C_se\"), 2), f\"{s[3]:.2f}\" if s else",
            T_SWEEP, "wrong column (the seed's G'p shown as its C)"),
-    Mutant("r3-32-sweep-no-html", S + "ensemble/sweep.py",
-           "    echo(f\"report: {sweep_report(out,",
-           "    0 and echo(f\"report: {sweep_report(out,",
+    Mutant("r3-32-sweep-no-html", S + "_cli/run_commands.py",
+           "        path = sweep_report(out_dir, entries, title=name)",
+           "        path = out_dir / \"report.html\"",
            T_SWEEP, "missing step (the sweep writes no report.html)"),
 ]
 

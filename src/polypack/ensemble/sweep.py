@@ -184,9 +184,6 @@ def run_sweep(path_or_data, out=None, *, workers=1, executor=None, force=False, 
                                      parameter=sw["parameter"], include=sw["include"], elastic=sw["elastic"],
                                      modulus=sw["modulus"])
         echo("heterogeneity report: " + ", ".join(str(p) for p in files.values()))
-    from ..report.build import sweep_report
-
-    # OUT/report.html: the values, and Table 2 / Figs. 2 and 6 when the heterogeneity report was written
-    # (``polypack run`` rewrites it after the values' own reports, to link them)
-    echo(f"report: {sweep_report(out, [(v, out / _label(sw['parameter'], v)) for v, _ in studies], title=name)}")
+    # OUT/report.html (the values, Table 2 / Figs. 2 and 6) is written by the report layer above this
+    # one: ``polypack run`` does it, or polypack.report.build.sweep_report(out, entries) after this call
     return results
