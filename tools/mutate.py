@@ -378,6 +378,14 @@ MUTANTS += [
     Mutant("k-net-peel-strict", K + "network.py",
            "            if deg[q] < min_bonds:\n", "            if deg[q] <= min_bonds:\n",
            T_NET, "off-by-one (recursive peel)"),
+    # the shared CSR primitive (bond incidence of the network kernels, the shaking Verlet list)
+    Mutant("k-csr-prefix-last", K + "csr.py",
+           "    for p in range(n):\n        offsets[p + 1] += offsets[p]\n",
+           "    for p in range(n - 1):\n        offsets[p + 1] += offsets[p]\n",
+           T_NET + ("tests/test_shake.py",), "off-by-one (prefix sum stops before the last particle)"),
+    Mutant("k-csr-one-end", K + "csr.py",
+           "        offsets[b[q] + 1] += 1\n", "        offsets[a[q] + 1] += 1\n",
+           ("tests/test_shake.py",) + T_NET, "wrong index (both ends of a pair counted at its first particle)"),
     # exact elastic tensor
     Mutant("m-el-affine-voigt", M + "elastic.py",
            "w = 1.0 if p == r else 0.5", "w = 1.0 if p == r else 1.0",

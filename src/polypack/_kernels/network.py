@@ -9,6 +9,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .csr import pair_offsets
+
 
 @njit(cache=True)
 def adjacency(n, bi, bj):
@@ -19,13 +21,7 @@ def adjacency(n, bi, bj):
     ``i`` end (normal points away from ``p``) and -1 for the ``j`` end.
     """
     m = bi.shape[0]
-    offsets = np.zeros(n + 1, np.int64)
-    for c in range(m):
-        offsets[bi[c] + 1] += 1
-        offsets[bj[c] + 1] += 1
-    for p in range(n):
-        offsets[p + 1] += offsets[p]
-    fill = offsets[:-1].copy()
+    offsets, fill = pair_offsets(n, bi, bj)
     bond = np.empty(2 * m, np.int64)
     sign = np.empty(2 * m, np.int64)
     for c in range(m):

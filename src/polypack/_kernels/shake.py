@@ -42,6 +42,7 @@ import numpy as np
 from numba import njit
 
 from .cells import min_image, pairs_within
+from .csr import pair_offsets
 
 METHOD_PAPER = 0
 METHOD_COLLISION = 1
@@ -112,13 +113,7 @@ def build_list(pos, radii, box, skin, ncell):
     n = pos.shape[0]
     pi, pj, pd = pairs_within(pos, radii, box, 1.0 + skin, 0.0, ncell)
     m = pi.shape[0]
-    start = np.zeros(n + 1, np.int64)
-    for q in range(m):
-        start[pi[q] + 1] += 1
-        start[pj[q] + 1] += 1
-    for i in range(n):
-        start[i + 1] += start[i]
-    fill = start[:-1].copy()
+    start, fill = pair_offsets(n, pi, pj)
     idx = np.empty(2 * m, np.int64)
     key = np.empty(2 * m, np.float64)
     for q in range(m):

@@ -541,37 +541,11 @@ def homogenize(packing, matrix, inclusions=None, resolution=64, *, property="ela
     InfeasibleError
         Only from the stage wrapper; :func:`homogenize` itself reports ``converged=False``.
     """
-    if property not in ("elastic", "conductivity"):
-        raise InvalidInputError(f"property={property!r} must be 'elastic' or 'conductivity'")
-    if scheme not in ("willot", "fourier"):
-        raise InvalidInputError(f"scheme={scheme!r} must be 'willot' (rotated discrete Green operator) or 'fourier'")
-    try:
-        tol = float(tolerance)
-    except (TypeError, ValueError):
-        tol = float("nan")
-    if not 0.0 < tol < 1.0:
-        raise InvalidInputError(f"tolerance={tolerance!r} must lie in (0, 1)")
+    tol = _check_solver_options(property, scheme, tolerance)
     if resolutions is not None:
-        res = list(resolutions)
-        if len(res) < 1 or any(isinstance(r, bool) or int(r) != r or r < 2 for r in res) or sorted(res) != res:
-            raise InvalidInputError(f"resolutions={resolutions!r} must be increasing integers >= 2")
-        from ..packing import Packing
-
-        if not isinstance(packing, Packing):
-            raise InvalidInputError("resolutions=... needs a Packing (an image has one resolution)")
-        runs = [homogenize(packing, matrix, inclusions, r, property=property, tolerance=tol,
-                           max_iterations=max_iterations, scheme=scheme, backend=backend, workers=workers,
-                           fields=fields and r == res[-1], subsamples=subsamples, precision=precision,
-                           composite=composite) for r in res]
-        best = runs[-1]
-        keys = ("bulk", "shear") if property == "elastic" else ("mean_conductivity",)
-        best.convergence = [{"resolution": list(r.resolution), "iterations": int(max(r.iterations)),
-                             "converged": bool(r.converged), "seconds": r.seconds,
-                             "voxel_inclusion_fraction": float(1.0 - r.volume_fractions["voxel"][0]),
-                             **{k: getattr(r, k) for k in keys}} for r in runs]
-        best.converged = all(r.converged for r in runs)
-        best.extrapolated = {k: richardson(res, [getattr(r, k) for r in runs]) for k in keys}
-        return best
+        return _resolution_series(packing, matrix, inclusions, resolutions, property=property, tolerance=tol,
+                                  max_iterations=max_iterations, scheme=scheme, backend=backend, workers=workers,
+                                  fields=fields, subsamples=subsamples, precision=precision, composite=composite)
 
     if precision not in ("double", "single"):
         raise InvalidInputError(f"precision={precision!r} must be 'double' or 'single'")
@@ -588,50 +562,16 @@ def homogenize(packing, matrix, inclusions=None, resolution=64, *, property="ela
     if property == "elastic" and labels.ndim != 3:
         raise InvalidInputError(f"property='elastic' needs a 3D pack or image (got {labels.ndim}D); "
                                 "2D images support property='conductivity'")
-    n_labels = int(labels.max()) + 1
-    if isinstance(packing, np.ndarray):
-        n_labels = max(n_labels, 1 + (len(inclusions) if isinstance(inclusions, (list, tuple, dict)) else 1))
-    elif hasattr(packing, "n_species"):
-        n_labels = max(n_labels, 1 + int(packing.n_species))
-    else:
-        n_labels = max(n_labels, len(fractions.get("exact", [])))
-    mats = _phase_list(matrix, inclusions, n_labels, property)
+    mats = _phase_list(matrix, inclusions, _label_count(packing, inclusions, labels, fractions), property)
     if composite and any(p != mats[1] for p in mats[2:]):
         raise InvalidInputError("composite=True needs one inclusion material for every species")
     maxit = int(max_iterations) if max_iterations is not None else 5000
     if maxit < 1:
         raise InvalidInputError(f"max_iterations={max_iterations!r} must be >= 1")
-    lab = xp.asarray(labels.astype(np.intp))
     t0 = time.perf_counter()
-    if property == "elastic":
-        ks = [p.bulk for p in mats]
-        gs = [p.shear for p in mats]
-        k0, g0 = _reference(ks), _reference(gs)
-        lam_t = xp.asarray(np.array([k - 2.0 * g / 3.0 for k, g in zip(ks, gs)], dtype=dtype))
-        mu_t = xp.asarray(np.array(gs, dtype=dtype))
-        if composite and len(mats) > 1:
-            kc, gc = _coated_elastic(mats[0], mats[1], np.asarray(phi, dtype=np.float64))
-            lam, mu = xp.asarray((kc - 2.0 * gc / 3.0).astype(dtype)), xp.asarray(gc.astype(dtype))
-        else:
-            lam, mu = lam_t[lab], mu_t[lab]
-        del lab
-        cmat, its, conv, flds = _solve_elastic(lam, mu, spacing, tol, maxit, xp, rfftn, irfftn,
-                                               k0 - 2.0 * g0 / 3.0, g0, scheme, fields)
-        asym = float(np.abs(cmat - cmat.T).max() / max(np.abs(cmat).max(), 1e-300))
-        out = Homogenized("elastic", tuple(labels.shape), its, conv, stiffness=0.5 * (cmat + cmat.T),
-                          asymmetry=asym, reference={"bulk": k0, "shear": g0})
-    else:
-        k0 = _reference(mats)
-        if composite and len(mats) > 1:
-            kf = xp.asarray(_coated_conductivity(mats[0], mats[1], np.asarray(phi, dtype=np.float64),
-                                                 labels.ndim).astype(dtype))
-        else:
-            kf = xp.asarray(np.array(mats, dtype=dtype))[lab]
-        del lab
-        cmat, its, conv, flds = _solve_conductivity(kf, spacing, tol, maxit, xp, rfftn, irfftn, k0, scheme, fields)
-        asym = float(np.abs(cmat - cmat.T).max() / max(np.abs(cmat).max(), 1e-300))
-        out = Homogenized("conductivity", tuple(labels.shape), its, conv, conductivity=0.5 * (cmat + cmat.T),
-                          asymmetry=asym, reference={"conductivity": k0})
+    solve = _homogenize_elastic if property == "elastic" else _homogenize_conductivity
+    out, flds = solve(labels, mats, phi if composite else None, spacing, tol, maxit, dtype, xp, rfftn, irfftn,
+                      scheme, fields)
     out.seconds = time.perf_counter() - t0
     out.scheme = scheme
     out.tolerance = tol
@@ -640,3 +580,98 @@ def homogenize(packing, matrix, inclusions=None, resolution=64, *, property="ela
     if fields:
         out.fields = [to_numpy(f) for f in flds]
     return out
+
+
+# ---------------------------------------------------------------- homogenize: the steps
+def _check_solver_options(property, scheme, tolerance):
+    """Refuse an unknown property or scheme and a tolerance outside (0, 1); returns the tolerance."""
+    if property not in ("elastic", "conductivity"):
+        raise InvalidInputError(f"property={property!r} must be 'elastic' or 'conductivity'")
+    if scheme not in ("willot", "fourier"):
+        raise InvalidInputError(f"scheme={scheme!r} must be 'willot' (rotated discrete Green operator) or 'fourier'")
+    try:
+        tol = float(tolerance)
+    except (TypeError, ValueError):
+        tol = float("nan")
+    if not 0.0 < tol < 1.0:
+        raise InvalidInputError(f"tolerance={tolerance!r} must lie in (0, 1)")
+    return tol
+
+
+def _resolution_series(packing, matrix, inclusions, resolutions, *, property, tolerance, max_iterations, scheme,
+                       backend, workers, fields, subsamples, precision, composite):
+    """:func:`homogenize` at each of ``resolutions`` (increasing): the finest result with the
+    ``convergence`` table and the Richardson ``extrapolated`` moduli."""
+    res = list(resolutions)
+    if len(res) < 1 or any(isinstance(r, bool) or int(r) != r or r < 2 for r in res) or sorted(res) != res:
+        raise InvalidInputError(f"resolutions={resolutions!r} must be increasing integers >= 2")
+    from ..packing import Packing
+
+    if not isinstance(packing, Packing):
+        raise InvalidInputError("resolutions=... needs a Packing (an image has one resolution)")
+    runs = [homogenize(packing, matrix, inclusions, r, property=property, tolerance=tolerance,
+                       max_iterations=max_iterations, scheme=scheme, backend=backend, workers=workers,
+                       fields=fields and r == res[-1], subsamples=subsamples, precision=precision,
+                       composite=composite) for r in res]
+    best = runs[-1]
+    keys = ("bulk", "shear") if property == "elastic" else ("mean_conductivity",)
+    best.convergence = [{"resolution": list(r.resolution), "iterations": int(max(r.iterations)),
+                         "converged": bool(r.converged), "seconds": r.seconds,
+                         "voxel_inclusion_fraction": float(1.0 - r.volume_fractions["voxel"][0]),
+                         **{k: getattr(r, k) for k in keys}} for r in runs]
+    best.converged = all(r.converged for r in runs)
+    best.extrapolated = {k: richardson(res, [getattr(r, k) for r in runs]) for k in keys}
+    return best
+
+
+def _label_count(packing, inclusions, labels, fractions):
+    """Number of phases: the labels of the image, at least one per species (or given inclusion)."""
+    n_labels = int(labels.max()) + 1
+    if isinstance(packing, np.ndarray):
+        n_labels = max(n_labels, 1 + (len(inclusions) if isinstance(inclusions, (list, tuple, dict)) else 1))
+    elif hasattr(packing, "n_species"):
+        n_labels = max(n_labels, 1 + int(packing.n_species))
+    else:
+        n_labels = max(n_labels, len(fractions.get("exact", [])))
+    return n_labels
+
+
+def _homogenize_elastic(labels, mats, phi, spacing, tol, maxit, dtype, xp, rfftn, irfftn, scheme, fields):
+    """The elastic :class:`Homogenized` of a label image (``phi``: sub-voxel inclusion fractions
+    of a composite-voxel run, else None) and its fields."""
+    lab = xp.asarray(labels.astype(np.intp))
+    ks = [p.bulk for p in mats]
+    gs = [p.shear for p in mats]
+    k0, g0 = _reference(ks), _reference(gs)
+    lam_t = xp.asarray(np.array([k - 2.0 * g / 3.0 for k, g in zip(ks, gs)], dtype=dtype))
+    mu_t = xp.asarray(np.array(gs, dtype=dtype))
+    if phi is not None and len(mats) > 1:
+        kc, gc = _coated_elastic(mats[0], mats[1], np.asarray(phi, dtype=np.float64))
+        lam, mu = xp.asarray((kc - 2.0 * gc / 3.0).astype(dtype)), xp.asarray(gc.astype(dtype))
+    else:
+        lam, mu = lam_t[lab], mu_t[lab]
+    del lab
+    cmat, its, conv, flds = _solve_elastic(lam, mu, spacing, tol, maxit, xp, rfftn, irfftn,
+                                           k0 - 2.0 * g0 / 3.0, g0, scheme, fields)
+    asym = float(np.abs(cmat - cmat.T).max() / max(np.abs(cmat).max(), 1e-300))
+    out = Homogenized("elastic", tuple(labels.shape), its, conv, stiffness=0.5 * (cmat + cmat.T),
+                      asymmetry=asym, reference={"bulk": k0, "shear": g0})
+    return out, flds
+
+
+def _homogenize_conductivity(labels, mats, phi, spacing, tol, maxit, dtype, xp, rfftn, irfftn, scheme, fields):
+    """The conductivity :class:`Homogenized` of a label image (``phi`` as for
+    :func:`_homogenize_elastic`) and its fields."""
+    lab = xp.asarray(labels.astype(np.intp))
+    k0 = _reference(mats)
+    if phi is not None and len(mats) > 1:
+        kf = xp.asarray(_coated_conductivity(mats[0], mats[1], np.asarray(phi, dtype=np.float64),
+                                             labels.ndim).astype(dtype))
+    else:
+        kf = xp.asarray(np.array(mats, dtype=dtype))[lab]
+    del lab
+    cmat, its, conv, flds = _solve_conductivity(kf, spacing, tol, maxit, xp, rfftn, irfftn, k0, scheme, fields)
+    asym = float(np.abs(cmat - cmat.T).max() / max(np.abs(cmat).max(), 1e-300))
+    out = Homogenized("conductivity", tuple(labels.shape), its, conv, conductivity=0.5 * (cmat + cmat.T),
+                      asymmetry=asym, reference={"conductivity": k0})
+    return out, flds
