@@ -106,3 +106,91 @@ def test_the_three_kernels_apply_the_same_pair_force():
     assert not np.array_equal(out[0], [[4.0, 5.0, 5.0], [6.13, 5.4, 4.9]])  # the force moved them
     np.testing.assert_array_equal(out[0], out[1])
     np.testing.assert_array_equal(out[0], out[2])
+
+
+def _dense(seed, n=120, box_len=9.0):
+    """``n`` spheres at random in a cube of side ``box_len`` (Φ ≈ 0.7: many overlaps and capture pairs)."""
+    rng = np.random.default_rng(seed)
+    pos = rng.uniform(0.0, box_len, (n, 3))
+    box = np.full(3, box_len)
+    p = np.zeros(bd.N_PARAMS)
+    p[bd.P_R_CUT] = 2.5
+    p[bd.P_SKIN] = 0.4
+    p[bd.P_BOND_WIDTH] = 0.05
+    p[bd.P_SWEEPS] = 6
+    p[bd.P_PROJ_TOL] = 0.0
+    return pos, box, p
+
+
+def _full_sweeps(pos, box, p, pi, pj, bonded):
+    """Reference: plain Gauss–Seidel capture and shell sweeps over every listed pair (module docstring of bd)."""
+    pos = pos.copy()
+    bonded = bonded.copy()
+    lim = 2.0 + p[bd.P_BOND_WIDTH]
+    for _ in range(int(p[bd.P_SWEEPS])):
+        for k in range(pi.size):
+            i, j = pi[k], pj[k]
+            d = pos[j] - pos[i]
+            d -= box * np.round(d / box)
+            r = float(np.sqrt(d @ d))
+            if not bonded[k]:
+                if r >= lim:
+                    continue
+                bonded[k] = 1
+            corr = 2.0 - r if r < 2.0 else (lim - r if r > lim else 0.0)
+            if corr != 0.0:
+                pos[i] -= 0.5 * corr / r * d
+                pos[j] += 0.5 * corr / r * d
+    return pos, bonded
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_projection_near_list_gives_the_full_sweeps(seed):
+    """The sweeps after the first visit only the pairs that can act (bd._project): the result is that of
+    plain full sweeps, for any margin (huge: every pair kept; tiny: the fallback to a full sweep fires)."""
+    pos0, box, p = _dense(seed)
+    n = pos0.shape[0]
+    adj0 = np.zeros((n, 24), np.int64)
+    deg0 = np.zeros(n, np.int64)
+    pi, pj, flag0, img = bd._build(pos0, box, p, adj0, deg0, np.array([3, 3, 3], np.int64))
+    ref, ref_bonded = _full_sweeps(pos0, box, p, pi, pj, flag0)
+    outs = []
+    for margin in (1e3, 0.1, 1e-3, 0.0):
+        pos = pos0.copy()
+        flag = flag0.copy()
+        state = np.zeros(bd.N_STATE)
+        istate = np.zeros(bd.N_ISTATE, np.int64)
+        status = bd._project(pos, box, p, state, istate, pi, pj, flag, img, np.zeros((n * 12, 2), np.int64),
+                             adj0.copy(), deg0.copy(), np.empty(pi.size, np.int64), np.zeros(n), margin)
+        assert status == 0
+        assert istate[bd.I_SWEEPS] == p[bd.P_SWEEPS]
+        outs.append(pos)
+        np.testing.assert_array_equal(flag, ref_bonded)
+        assert istate[bd.I_NBONDS] == ref_bonded.sum()
+    assert np.abs(ref - pos0).max() > 0.1  # the sweeps moved spheres
+    np.testing.assert_allclose(outs[0], ref, rtol=0, atol=1e-12)
+    for out in outs[1:]:
+        np.testing.assert_array_equal(out, outs[0])
+
+
+def test_far_periodic_images_give_the_same_step():
+    """Unwrapped positions several boxes away (image counts |q| >= 2 in the Verlet list) give the
+    same forces, captures and projections as the wrapped ones."""
+    pos0, box, p = _dense(3, n=80)
+    p[bd.P_DT] = 1e-4
+    p[bd.P_CAP_DRIFT] = 0.25
+    p[bd.P_TAB_LO] = 0.05
+    p[bd.P_TAB_DH] = 0.05
+    table = -np.linspace(50.0, 0.0, 10)
+    shifts = np.random.default_rng(4).integers(-3, 4, pos0.shape) * box
+    out = []
+    for pos in (pos0.copy(), pos0 + shifts):
+        n = pos.shape[0]
+        istate = np.zeros(bd.N_ISTATE, np.int64)
+        status = bd.run(pos, box, p, np.zeros(bd.N_STATE), istate, table, np.zeros((n * 12, 2), np.int64),
+                        np.zeros((n, 24), np.int64), np.zeros(n, np.int64), np.array([3, 3, 3], np.int64),
+                        np.array([1, 2, 3, 4], np.uint64), 3)
+        assert status == 0 and istate[bd.I_NBONDS] > 10
+        out.append((pos, istate[bd.I_NBONDS]))
+    assert out[0][1] == out[1][1]
+    np.testing.assert_allclose(out[1][0] - shifts, out[0][0], rtol=0, atol=1e-9)

@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """Independent mutation check of the round-3 modules (issue 37's rule for resolving a round-3 issue).
 
-Before a round-3 issue (30, 31, 34, 35, 36) is called resolved, issue 37 asks for an
+Before a round-3 issue (30, 31, 32, 34, 35, 36) is called resolved, issue 37 asks for an
 independent mutation check of the modules it touched: plausible one-line bugs written
 from a reading of those modules only, *without* looking at the harness's list
 (``tools/mutate.py``) or at ``tools/mutants_independent.py``'s list, each aimed at the
@@ -56,8 +56,30 @@ T_RIG = T_S3 + ("tests/test_mechanics_rigidity.py",)
 T_REG = T_S3 + ("tests/test_registry.py", "tests/test_declarations.py", "tests/test_options.py")
 T_GEN = T_S3 + ("tests/test_declarations.py", "tests/test_registry.py")
 T_VEMR = ("tests/test_vem_restructure.py",)
+T_BDK = ("tests/test_bd_kernel.py",)
 
 ROUND3 = [
+    # ============================================================== issue 32: Brownian-dynamics speed (bd.py)
+    Mutant("r3-32-near-restart", K + "bd.py",
+           "                    q = k + 1\n",
+           "                    q = k\n",
+           T_BDK, "off-by-one (the pair that triggered the fallback visited twice)"),
+    Mutant("r3-32-near-keep-bonded", K + "bd.py",
+           "if collect and (flag[k] != 0 or r2 < keep2):",
+           "if collect and r2 < keep2:",
+           T_BDK, "dropped condition (stretched bonds left out of the near list)"),
+    Mutant("r3-32-near-tally", K + "bd.py",
+           "                moved[j] += 0.5 * c\n",
+           "                moved[j] += 0.0 * c\n",
+           T_BDK, "dropped term (movement of the second sphere not counted: unsafe skips)"),
+    Mutant("r3-32-image-count-far", K + "bd.py",
+           "        q = 1\n        d -= length\n        if d > half:\n            q += int(np.floor(d / length + 0.5))\n",
+           "        q = 1\n        d -= length\n",
+           T_BDK, "dropped branch (image count of spheres unwrapped more than 1.5 boxes apart)"),
+    Mutant("r3-32-shift-sign", K + "bd.py",
+           "    return d - length * q\n",
+           "    return d + length * q\n",
+           T_BDK + ("tests/test_brownian.py",), "wrong sign (minimum image of listed pairs)"),
     # ============================================================== issue 31: floppy / rigid, outputs
     Mutant("r3-31-floppy-ref-index", M + "elastic.py",
            "ref = float(np.linalg.eigvalsh(0.5 * (c_aff + c_aff.T))[-1])",

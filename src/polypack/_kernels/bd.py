@@ -40,9 +40,12 @@ with ``F`` the total force in units of ``kT/a``, followed by constraint projecti
   resistance with a rolling yield; see its docstring).
 
 ``P_R_CUT <= 0`` means independent spheres (no list is built).  Neighbours come from
-a Verlet list (centre distance ``P_R_CUT + P_SKIN``) built by
-:func:`polypack._kernels.cells.pairs_within` and rebuilt when a sphere has moved more
-than half the skin.  Random numbers: xoshiro256** with an explicit ``uint64[4]``
+a Verlet list (centre distance ``P_R_CUT + P_SKIN``; the pairs of
+:func:`polypack._kernels.cells.pairs_within`, in its order, built by :func:`_verlet_pairs`
+with each pair's periodic image count, so the hot loops apply the minimum image without
+branches) rebuilt when a sphere has moved more than half the skin.  The projection sweeps
+after the first of a step visit only the pairs that can act (:func:`_project`; same
+result bit for bit).  Random numbers: xoshiro256** with an explicit ``uint64[4]``
 state and polar Box–Muller normals (the spare normal is kept in the state array),
 so a run continues bit for bit across calls.  Positions are unwrapped (never folded).
 """
@@ -54,7 +57,7 @@ from enum import IntEnum
 import numpy as np
 from numba import njit
 
-from .cells import min_image, pairs_within
+from .cells import build_cells, cell_lengths, cells_in_reach, min_image
 
 # parameter slots
 P_DT = 0
@@ -162,13 +165,94 @@ def _bonded(adj, deg, i, j):
 
 
 @njit(cache=True)
+def _image_count(d, length):
+    """Number of box lengths :func:`~polypack._kernels.cells.min_image` takes off ``d`` (see :func:`_shifted`)."""
+    half = 0.5 * length
+    q = 0
+    if d > half:
+        q = 1
+        d -= length
+        if d > half:
+            q += int(np.floor(d / length + 0.5))
+    elif d < -half:
+        q = -1
+        d += length
+        if d < -half:
+            q += int(np.floor(d / length + 0.5))
+    return q
+
+
+@njit(cache=True)
+def _shifted(d, q, length):
+    """``min_image(d, length)`` of a listed pair whose image count is ``q`` (:func:`_image_count`).
+
+    No branches on ``d``: ``q`` stays valid while the pair is within half a box of its build-time
+    image (listed pairs are within the cutoff plus twice the skin, at most half the box).  Bit for
+    bit ``min_image`` when ``|q| <= 1``; beyond (spheres unwrapped more than 1.5 boxes apart) one
+    rounding instead of ``min_image``'s two.
+    """
+    return d - length * q
+
+
+@njit(cache=True)
+def _fill_verlet(pos, box, reach, ncell, cell_of, start, order, pi, pj, img):
+    """Store the pairs of :func:`_verlet_pairs` into the buffers; returns their count (may exceed the buffers)."""
+    cap = pi.shape[0]
+    cl = cell_lengths(box, ncell)
+    visit = np.empty(start.shape[0] - 1, np.int64)
+    lim2 = reach * reach
+    m = 0
+    for i in range(pos.shape[0]):
+        nv = cells_in_reach(cell_of[i], reach, cl, ncell, visit)
+        xi0 = pos[i, 0]
+        xi1 = pos[i, 1]
+        xi2 = pos[i, 2]
+        for q in range(nv):
+            c = visit[q]
+            for s in range(start[c], start[c + 1]):
+                j = order[s]
+                if j >= i:
+                    continue
+                dx = min_image(pos[j, 0] - xi0, box[0])
+                dy = min_image(pos[j, 1] - xi1, box[1])
+                dz = min_image(pos[j, 2] - xi2, box[2])
+                if dx * dx + dy * dy + dz * dz <= lim2:
+                    if m < cap:
+                        pi[m] = i
+                        pj[m] = j
+                        img[m, 0] = _image_count(pos[j, 0] - xi0, box[0])
+                        img[m, 1] = _image_count(pos[j, 1] - xi1, box[1])
+                        img[m, 2] = _image_count(pos[j, 2] - xi2, box[2])
+                    m += 1
+    return m
+
+
+@njit(cache=True)
+def _verlet_pairs(pos, box, reach, ncell):
+    """Pairs ``i > j`` within ``reach`` (minimum image) and their image counts ``(M, 3)``.
+
+    The pairs of :func:`~polypack._kernels.cells.pairs_within` for equal spheres, in its order
+    (by ``i``, then by the cells it visits), without its distance array and copies.
+    """
+    cell_of, start, order = build_cells(pos, box, ncell)
+    cap = max(16, 8 * pos.shape[0])
+    while True:
+        pi = np.empty(cap, np.int64)
+        pj = np.empty(cap, np.int64)
+        img = np.empty((cap, 3), np.int16)
+        m = _fill_verlet(pos, box, reach, ncell, cell_of, start, order, pi, pj, img)
+        if m <= cap:
+            return pi[:m], pj[:m], img[:m]
+        cap = m
+
+
+@njit(cache=True)
 def _build(pos, box, params, adj, deg, ncell):
-    n = pos.shape[0]
+    """Verlet list: pairs ``pi > pj`` within cutoff + skin, bonded flags, image counts."""
     if params[P_R_CUT] <= 0.0:  # no pair forces and no bonds: no neighbour list
         e = np.empty(0, np.int64)
-        return e, e.copy(), np.empty(0, np.uint8)
-    ones = np.ones(n, np.float64)
-    pi, pj, _ = pairs_within(pos, ones, box, 0.0, params[P_R_CUT] + params[P_SKIN], ncell)
+        return e, e.copy(), np.empty(0, np.uint8), np.empty((0, 3), np.int16)
+    pi, pj, img = _verlet_pairs(pos, box, params[P_R_CUT] + params[P_SKIN], ncell)
     flag = np.zeros(pi.shape[0], np.uint8)
     for k in range(pi.shape[0]):
         i = pi[k]
@@ -178,35 +262,72 @@ def _build(pos, box, params, adj, deg, ncell):
                 flag[k] = 1
         elif _bonded(adj, deg, j, i):
             flag[k] = 1
-    return pi, pj, flag
+    return pi, pj, flag, img
+
+
+#: Extra gap (radii) within which an unbonded pair seen in a full projection sweep is kept for
+#: the next sweeps of the step (:func:`_project`); any value gives the same result, bit for bit.
+NEAR_MARGIN = 0.1
 
 
 @njit(cache=True)
-def _project(pos, box, params, state, istate, pi, pj, flag, bonds, adj, deg):
-    """Capture and shell projection sweeps (see module docstring); returns a Status."""
+def _project(pos, box, params, state, istate, pi, pj, flag, img, bonds, adj, deg, near, moved, margin):
+    """Capture and shell projection sweeps (see module docstring); returns a Status.
+
+    Gauss–Seidel sweeps over the listed pairs in list order.  A full sweep also collects,
+    in order, the pairs that can act in the next sweeps (bonded, or within ``margin`` of the
+    capture or contact distance) into ``near`` and starts the per-sphere movement tally
+    ``moved`` (each correction moves both centres by half of it); the next sweeps visit only
+    those while twice the largest tally stays below ``margin`` (a skipped pair cannot then
+    have come within reach), and go on as a full sweep from the point where it no longer
+    does.  Pairs are always visited in the order of the full list, so the result is that of
+    full sweeps bit for bit, whatever ``margin`` (:data:`NEAR_MARGIN` in the kernels).
+    ``near`` (M,) int64 and ``moved`` (N,) float64 are work arrays.
+    """
     width = params[P_BOND_WIDTH]
     cap_lim = 2.0 + width
+    cap2 = cap_lim * cap_lim
     sweeps = int(params[P_SWEEPS])
     tol = params[P_PROJ_TOL]
     nb = istate[I_NBONDS]
     maxdeg = adj.shape[1]
     cap = bonds.shape[0]
     overlap_only = params[P_OVERLAP_ONLY] != 0.0
+    keep = (2.0 if overlap_only else cap_lim) + margin
+    keep2 = keep * keep
+    half_margin = 0.5 * margin
+    npair = pi.shape[0]
     worst = 0.0
+    nnear = -1  # length of the near list; -1: none (the next sweep is a full one)
+    tally = 0.0  # largest entry of moved since the near list was collected
     for _sweep in range(sweeps):
         worst = 0.0
-        for k in range(pi.shape[0]):
+        use_near = nnear >= 0
+        collect = not use_near
+        count = nnear if use_near else npair
+        if collect:
+            for i in range(moved.shape[0]):
+                moved[i] = 0.0
+            tally = 0.0
+            nnear = 0
+        q = 0
+        while q < count:
+            k = near[q] if use_near else q
+            q += 1
             i = pi[k]
             j = pj[k]
-            dx = min_image(pos[j, 0] - pos[i, 0], box[0])
-            dy = min_image(pos[j, 1] - pos[i, 1], box[1])
-            dz = min_image(pos[j, 2] - pos[i, 2], box[2])
+            dx = _shifted(pos[j, 0] - pos[i, 0], img[k, 0], box[0])
+            dy = _shifted(pos[j, 1] - pos[i, 1], img[k, 1], box[1])
+            dz = _shifted(pos[j, 2] - pos[i, 2], img[k, 2], box[2])
             r2 = dx * dx + dy * dy + dz * dz
+            if collect and (flag[k] != 0 or r2 < keep2):
+                near[nnear] = k
+                nnear += 1
             if overlap_only:
                 if r2 >= 4.0:
                     continue
             elif flag[k] == 0:
-                if r2 >= cap_lim * cap_lim:
+                if r2 >= cap2:
                     continue
                 if nb >= cap:
                     istate[I_NBONDS] = nb
@@ -229,8 +350,9 @@ def _project(pos, box, params, state, istate, pi, pj, flag, bonds, adj, deg):
                 corr = cap_lim - r
             else:
                 continue
-            if abs(corr) > worst:
-                worst = abs(corr)
+            c = abs(corr)
+            if c > worst:
+                worst = c
             s = 0.5 * corr / max(r, 1e-12)
             pos[i, 0] -= s * dx
             pos[i, 1] -= s * dy
@@ -238,6 +360,19 @@ def _project(pos, box, params, state, istate, pi, pj, flag, bonds, adj, deg):
             pos[j, 0] += s * dx
             pos[j, 1] += s * dy
             pos[j, 2] += s * dz
+            if collect or use_near:
+                moved[i] += 0.5 * c
+                moved[j] += 0.5 * c
+                if moved[i] > tally:
+                    tally = moved[i]
+                if moved[j] > tally:
+                    tally = moved[j]
+                if use_near and tally >= half_margin:
+                    # skipped pairs may act from here on: the rest of this sweep is a full one
+                    use_near = False
+                    q = k + 1
+                    count = npair
+                    nnear = -1
         istate[I_SWEEPS] += 1
         if worst <= tol:
             break
@@ -247,7 +382,7 @@ def _project(pos, box, params, state, istate, pi, pj, flag, bonds, adj, deg):
     return Status.OK
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _pair_force(h, table, lo, inv_dh, cap_drift, dt, uc=0.0):
     """Central DLVO pair force (kT/a, positive = repulsive) at surface separation ``h``.
 
@@ -301,6 +436,43 @@ def _dlvo_forces(pos, box, params, pi, pj, flag, table, force, lab, skip_interna
         dx = min_image(pos[j, 0] - pos[i, 0], box[0])
         dy = min_image(pos[j, 1] - pos[i, 1], box[1])
         dz = min_image(pos[j, 2] - pos[i, 2], box[2])
+        r2 = dx * dx + dy * dy + dz * dz
+        if r2 >= rc2:
+            continue
+        r = np.sqrt(r2)
+        f = _pair_force(r - 2.0, table, lo, inv_dh, cap_drift, dt, uc)
+        vir += f * r
+        fr = f / r
+        force[i, 0] -= fr * dx
+        force[i, 1] -= fr * dy
+        force[i, 2] -= fr * dz
+        force[j, 0] += fr * dx
+        force[j, 1] += fr * dy
+        force[j, 2] += fr * dz
+    return vir
+
+
+@njit(cache=True)
+def _pair_forces(pos, box, params, pi, pj, flag, img, table, force):
+    """:func:`_dlvo_forces` of the flexible and tangential kernels, on the image counts of the list.
+
+    Same pairs, same order, same arithmetic (:func:`_shifted` is ``min_image`` bit for bit).
+    """
+    dt = params[P_DT]
+    rc2 = params[P_R_CUT] * params[P_R_CUT]
+    cap_drift = params[P_CAP_DRIFT]
+    lo = params[P_TAB_LO]
+    inv_dh = 1.0 / params[P_TAB_DH]
+    uc = params[P_LUB_RANGE]
+    vir = 0.0
+    for k in range(pi.shape[0]):
+        if flag[k]:
+            continue
+        i = pi[k]
+        j = pj[k]
+        dx = _shifted(pos[j, 0] - pos[i, 0], img[k, 0], box[0])
+        dy = _shifted(pos[j, 1] - pos[i, 1], img[k, 1], box[1])
+        dz = _shifted(pos[j, 2] - pos[i, 2], img[k, 2], box[2])
         r2 = dx * dx + dy * dy + dz * dz
         if r2 >= rc2:
             continue
@@ -611,7 +783,9 @@ def run(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rng, nst
     bonding = params[P_BOND_WIDTH] >= 0.0
     ktrap = params[P_TRAP_K]
 
-    pi, pj, flag = _build(pos, box, params, adj, deg, ncell)
+    pi, pj, flag, img = _build(pos, box, params, adj, deg, ncell)
+    near = np.empty(pi.shape[0], np.int64)
+    moved = np.zeros(n, np.float64)
     ref = pos.copy()
     force = np.zeros((n, 3), np.float64)
     for _step in range(nsteps):
@@ -619,21 +793,24 @@ def run(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rng, nst
             force[i, 0] = 0.0
             force[i, 1] = 0.0
             force[i, 2] = 0.0
-        vir = _dlvo_forces(pos, box, params, pi, pj, flag, table, force, deg, False)
+        vir = _pair_forces(pos, box, params, pi, pj, flag, img, table, force)
         if ktrap != 0.0:
             _trap_forces(pos, box, ktrap, force)
         state[S_VIRIAL] += vir
         state[S_VIRIAL_STEPS] += 1.0
         _translate(pos, box, params, pi, pj, flag, force, rng, state)
         if bonding:
-            status = _project(pos, box, params, state, istate, pi, pj, flag, bonds, adj, deg)
+            status = _project(pos, box, params, state, istate, pi, pj, flag, img, bonds, adj, deg, near, moved,
+                              NEAR_MARGIN)
             if status != Status.OK:
                 return status
         state[S_TIME] += dt
         istate[I_STEPS] += 1
         maxd2 = _max_displacement2(pos, ref, box, False)
         if maxd2 > half_skin2 and rc2 > 0.0:
-            pi, pj, flag = _build(pos, box, params, adj, deg, ncell)
+            pi, pj, flag, img = _build(pos, box, params, adj, deg, ncell)
+            if near.shape[0] < pi.shape[0]:
+                near = np.empty(pi.shape[0], np.int64)
             for i in range(n):
                 for c in range(3):
                     ref[i, c] = pos[i, c]
@@ -1088,7 +1265,7 @@ def run_rigid(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rn
     half_skin2 = 0.25 * params[P_SKIN] * params[P_SKIN]
     ktrap = params[P_TRAP_K]
 
-    pi, pj, flag = _build(pos, box, params, adj, deg, ncell)
+    pi, pj, flag, _ = _build(pos, box, params, adj, deg, ncell)
     ref = pos.copy()
     force = np.zeros((n, 3), np.float64)
     for _step in range(nsteps):
@@ -1112,7 +1289,7 @@ def run_rigid(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rn
         istate[I_STEPS] += 1
         maxd2 = _max_displacement2(pos, ref, box, True)
         if maxd2 > half_skin2 and rc2 > 0.0:
-            pi, pj, flag = _build(pos, box, params, adj, deg, ncell)
+            pi, pj, flag, _ = _build(pos, box, params, adj, deg, ncell)
             for i in range(n):
                 for c in range(3):
                     ref[i, c] = pos[i, c]
@@ -1277,7 +1454,9 @@ def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncel
     rotate = springs or params[P_ROTATE] != 0.0
     rnoise = noise * np.sqrt(SPHERE_ROT_MOBILITY)
 
-    pi, pj, flag = _build(pos, box, params, adj, deg, ncell)
+    pi, pj, flag, img = _build(pos, box, params, adj, deg, ncell)
+    near = np.empty(pi.shape[0], np.int64)
+    moved = np.zeros(n, np.float64)
     ref = pos.copy()
     force = np.zeros((n, 3), np.float64)
     torque = np.zeros((n, 3), np.float64)
@@ -1288,7 +1467,7 @@ def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncel
             for c in range(3):
                 force[i, c] = 0.0
                 torque[i, c] = 0.0
-        vir = _dlvo_forces(pos, box, params, pi, pj, flag, table, force, deg, False)
+        vir = _pair_forces(pos, box, params, pi, pj, flag, img, table, force)
         if springs:
             _tangential_forces(pos, box, params, bonds, istate[I_NBONDS], anchors, force, torque)
         if ktrap != 0.0:
@@ -1333,7 +1512,8 @@ def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncel
                 anchors[b, 5] = rot[j, 2, 0] * w0 + rot[j, 2, 1] * w1 + rot[j, 2, 2] * w2
         if bonding:
             nb_old = istate[I_NBONDS]
-            status = _project(pos, box, params, state, istate, pi, pj, flag, bonds, adj, deg)
+            status = _project(pos, box, params, state, istate, pi, pj, flag, img, bonds, adj, deg, near, moved,
+                              NEAR_MARGIN)
             _init_anchors(pos, box, bonds, anchors, nb_old, istate[I_NBONDS])
             if status != Status.OK:
                 return status
@@ -1341,7 +1521,9 @@ def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncel
         istate[I_STEPS] += 1
         maxd2 = _max_displacement2(pos, ref, box, False)
         if maxd2 > half_skin2 and rc2 > 0.0:
-            pi, pj, flag = _build(pos, box, params, adj, deg, ncell)
+            pi, pj, flag, img = _build(pos, box, params, adj, deg, ncell)
+            if near.shape[0] < pi.shape[0]:
+                near = np.empty(pi.shape[0], np.int64)
             for i in range(n):
                 for c in range(3):
                     ref[i, c] = pos[i, c]
