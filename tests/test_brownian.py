@@ -94,7 +94,10 @@ def test_repulsive_suspension_is_hard_sphere_fluid():
     The virial contact value g_c = (Z - 1) / (4 eta_d), Z = 1 + <sum r F> / (3 N kT),
     must match Carnahan-Starling's (1 - eta/2) / (1 - eta)^3 at eta_d = phi (d / 2a)^3
     within 4 % (BH is exact to first order in the softness, here 1/(kappa d) ~ 1 %;
-    halving kT would shift eta_d by ~2.5 % and g_c by ~8 %).
+    halving kT would shift eta_d by ~2.5 % and g_c by ~8 %).  The virial of the steep
+    repulsion is a heavy-tailed estimator: one noise seed over 0.1 a²/D0 scatters by ~4 %
+    (sd over 8 seeds, both the polar Box-Muller and the ziggurat normals; mean +3.1 % and
+    +3.4 %), so g_c is averaged over six noise seeds (one run passed by luck before).
     """
     from scipy.integrate import quad
 
@@ -106,12 +109,15 @@ def test_repulsive_suspension_is_hard_sphere_fluid():
     eta = phi * (d / (2 * a)) ** 3
     L = a * (4 * n * math.pi / (3 * phi)) ** (1 / 3)
     pos = bdmod._initial_positions(n, a, L, d - 2 * a, 5)
-    sim = bdmod.BrownianSimulation(pos, L, p, bond_width=None, seed=6, cutoff=2 * a + 30 * lam)
-    steps_tau = p.brownian_time / sim.time_step
-    sim.run(int(0.03 * steps_tau))
-    sim.reset_virial()
-    sim.run(int(0.1 * steps_tau))
-    z = 1 + sim.mean_virial() / (3 * n * p.kT)
+    zs = []
+    for seed in range(6, 12):
+        sim = bdmod.BrownianSimulation(pos, L, p, bond_width=None, seed=seed, cutoff=2 * a + 30 * lam)
+        steps_tau = p.brownian_time / sim.time_step
+        sim.run(int(0.03 * steps_tau))
+        sim.reset_virial()
+        sim.run(int(0.1 * steps_tau))
+        zs.append(1 + sim.mean_virial() / (3 * n * p.kT))
+    z = float(np.mean(zs))
     g_c = (z - 1) / (4 * eta)
     _, g_cs = _carnahan_starling(eta)
     assert abs(g_c / g_cs - 1) < 0.04, (eta, g_c, g_cs)

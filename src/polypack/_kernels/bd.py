@@ -46,8 +46,8 @@ with each pair's periodic image count, so the hot loops apply the minimum image 
 branches) rebuilt when a sphere has moved more than half the skin.  The projection sweeps
 after the first of a step visit only the pairs that can act (:func:`_project`; same
 result bit for bit).  Random numbers: xoshiro256** with an explicit ``uint64[4]``
-state and polar Box–Muller normals (the spare normal is kept in the state array),
-so a run continues bit for bit across calls.  Positions are unwrapped (never folded).
+state and ziggurat normals (:func:`next_normal`), so a run continues bit for bit across
+calls.  Positions are unwrapped (never folded).
 """
 
 from __future__ import annotations
@@ -87,8 +87,8 @@ LUB_U_FLOOR = 1e-4
 S_TIME = 0
 S_VIRIAL = 1  # sum over steps of sum_pairs r F (pair forces)
 S_VIRIAL_STEPS = 2
-S_HAVE_SPARE = 3
-S_SPARE = 4
+S_HAVE_SPARE = 3  # unused since the ziggurat normals (no spare normal)
+S_SPARE = 4  # unused
 S_MAX_RESIDUAL = 5  # largest constraint violation left after the sweeps of a step
 N_STATE = 6
 
@@ -106,12 +106,12 @@ class Status(IntEnum):
     PARTICLE_BONDS = 2  # a sphere reached the per-sphere bond limit
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _rotl(x, k):
     return (x << np.uint64(k)) | (x >> np.uint64(64 - k))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def next_u64(s):
     """xoshiro256** step on the state ``s`` (uint64[4])."""
     result = _rotl(s[1] * np.uint64(5), 7) * np.uint64(9)
@@ -125,28 +125,73 @@ def next_u64(s):
     return result
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def next_double(s):
     """Uniform double in [0, 1) with 53 random bits."""
     return float(next_u64(s) >> np.uint64(11)) * (1.0 / 9007199254740992.0)
 
 
-@njit(cache=True)
+def _ziggurat_tables(layers=256, r=3.6541528853610088, v=0.00492867323399):
+    """Tables of the 256-layer normal ziggurat (Marsaglia & Tsang 2000) on 52-bit uniforms.
+
+    Layer ``i`` has width ``x_i`` (``x_255 = r``, the tail start; ``x_0 = 0``) and area ``v``;
+    ``w[i] = x_i / 2^52`` scales the integer draw to ``x``, ``k[i]`` (integer) accepts it without
+    a test when ``x`` lies inside the next layer's width, ``f[i] = exp(-x_i^2 / 2)``.  Layer 0
+    is the base strip with the tail beyond ``r``.
+    """
+    m = float(2 ** 52)
+    k = np.zeros(layers, np.uint64)
+    w = np.zeros(layers)
+    f = np.zeros(layers)
+    dn = tn = r
+    q = v / np.exp(-0.5 * dn * dn)
+    k[0] = np.uint64((dn / q) * m)
+    w[0] = q / m
+    w[layers - 1] = dn / m
+    f[0] = 1.0
+    f[layers - 1] = np.exp(-0.5 * dn * dn)
+    for i in range(layers - 2, 0, -1):
+        dn = np.sqrt(-2.0 * np.log(v / dn + np.exp(-0.5 * dn * dn)))
+        k[i + 1] = np.uint64((dn / tn) * m)
+        tn = dn
+        f[i] = np.exp(-0.5 * dn * dn)
+        w[i] = dn / m
+    return k, w, f
+
+
+_ZIG_K, _ZIG_W, _ZIG_F = _ziggurat_tables()
+_ZIG_R = 3.6541528853610088
+_ZIG_INV_R = 1.0 / _ZIG_R
+
+
+@njit(cache=True, inline="always")
 def next_normal(s, state):
-    """Standard normal (polar Box–Muller, spare kept in ``state``)."""
-    if state[S_HAVE_SPARE] != 0.0:
-        state[S_HAVE_SPARE] = 0.0
-        return state[S_SPARE]
+    """Standard normal: 256-layer ziggurat (Marsaglia & Tsang 2000) on one xoshiro256** draw.
+
+    The low 8 bits pick the layer, the next bit the sign, the top 52 bits the abscissa; about
+    99 % of the draws return after one comparison, the rest take the wedge test or Marsaglia's
+    tail algorithm beyond ``r`` (both exact).  ``state`` is unused (it held the spare normal of
+    the polar Box–Muller generator used before).
+    """
     while True:
-        u = 2.0 * next_double(s) - 1.0
-        v = 2.0 * next_double(s) - 1.0
-        q = u * u + v * v
-        if 0.0 < q < 1.0:
-            break
-    f = np.sqrt(-2.0 * np.log(q) / q)
-    state[S_SPARE] = v * f
-    state[S_HAVE_SPARE] = 1.0
-    return u * f
+        u = next_u64(s)
+        idx = np.int64(u & np.uint64(0xFF))
+        u = u >> np.uint64(8)
+        sign = u & np.uint64(1)
+        rabs = (u >> np.uint64(1)) & np.uint64(0x000FFFFFFFFFFFFF)
+        x = float(rabs) * _ZIG_W[idx]
+        if sign != 0:
+            x = -x
+        if rabs < _ZIG_K[idx]:
+            return x
+        if idx == 0:  # tail beyond r (Marsaglia 1964)
+            while True:
+                xx = -_ZIG_INV_R * np.log1p(-next_double(s))
+                yy = -np.log1p(-next_double(s))
+                if yy + yy > xx * xx:
+                    return -(_ZIG_R + xx) if sign != 0 else _ZIG_R + xx
+        elif (_ZIG_F[idx - 1] - _ZIG_F[idx]) * next_double(s) + _ZIG_F[idx] < np.exp(-0.5 * x * x):
+            return x
 
 
 @njit(cache=True)
@@ -156,7 +201,7 @@ def fill_normals(s, state, out):
         out[k] = next_normal(s, state)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _bonded(adj, deg, i, j):
     for q in range(deg[i]):
         if adj[i, q] == j:
@@ -517,7 +562,7 @@ def _max_displacement2(pos, ref, box, periodic_image):
     return maxd2
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _internal(pos, box, i, j, lab):
     """True if i and j are in one cluster and see each other at their stored (unwrapped) image."""
     if lab[i] != lab[j]:
@@ -757,7 +802,7 @@ def run(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rng, nst
     box : (3,) float64
     params : (N_PARAMS,) float64
     state : (N_STATE,) float64, istate : (N_ISTATE,) int64
-        Time, virial accumulators, Box–Muller spare, constraint residual; step,
+        Time, virial accumulators, (unused slots), constraint residual; step,
         bond, rebuild and sweep counts.
     table : (M,) float64
         Pair force (kT/a, positive = repulsive) on the separation grid.
@@ -986,7 +1031,7 @@ def init_clusters(n, lab, nxt, head, tail, csize, frozen):
         frozen[i] = 0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _translate_cluster(pos, c, head, nxt, sx, sy, sz):
     m = head[c]
     while m >= 0:
@@ -1116,7 +1161,7 @@ def _rigid_capture(pos, box, params, istate, pi, pj, flag, bonds, adj, deg, lab,
     return Status.OK
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _rotation(tx, ty, tz, out):
     """Rotation matrix of the rotation vector (tx, ty, tz) (Rodrigues), written to ``out`` (3, 3)."""
     th = np.sqrt(tx * tx + ty * ty + tz * tz)
@@ -1414,7 +1459,7 @@ def _tangential_forces(pos, box, params, bonds, nb, anchors, force, torque):
             torque[j, 2] -= ks * (wx * dy - wy * dx)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _apply_rotation(rot, i, v, k):
     """v[k, 0:3] <- rot[i] v[k, 0:3]."""
     x = v[k, 0]
