@@ -146,6 +146,34 @@ def test_every_accepted_footprint_works(width, boundary, rule):
     assert pk.n == rad.size and pk.min_gap() >= -1e-9
 
 
+@pytest.mark.parametrize("width,boundary,rule", [
+    ((4.0, 6.1), "periodic", "surface"), ((4.0, 4.0), "periodic", "roll"), ((1.05, 1.05), "walls", "surface"),
+    ((1.02, 2.6), "walls", "surface")])
+def test_every_accepted_footprint_works_at_size_ratio_10(width, boundary, rule):
+    """Issue 35, the footprints the generator accepts at size ratio 10 (the smallest: 4 d_max periodic, a
+    column barely wider than d_max between walls, and non-square ones), both rules: no error, no overlap,
+    every sphere placed (on three supports, the floor or the walls, or counted by the kernel's last resort)."""
+    rng = np.random.default_rng(6)
+    rad = rng.permutation(np.r_[np.full(6, 0.5), np.full(250, 0.05)])
+    pk = pp.deposit(rad, width=width, boundary=boundary, seed=4, dim=3, rule=rule, progress=False)
+    assert pk.n == rad.size and pk.min_gap() >= -1e-9
+    assert np.all(pk.positions[:, 2] >= pk.radii * (1 - 1e-9))
+    if boundary == "walls":
+        lo, hi = pk.positions[:, :2] - pk.radii[:, None], pk.positions[:, :2] + pk.radii[:, None]
+        assert np.all(lo >= -1e-9) and np.all(hi <= np.asarray(width) + 1e-9)
+
+
+@pytest.mark.parametrize("width,boundary,match", [
+    ((3.99, 8.0), "periodic", "four times"), ((8.0, 3.9), "periodic", "four times"),
+    ((0.99, 3.0), "walls", "wider than the box"), ((5.0, -1.0), "walls", "finite and > 0")])
+def test_footprints_the_generator_refuses_are_refused_up_front(width, boundary, match):
+    """A periodic footprint below 4 d_max on either axis and a wall box narrower than d_max are refused with
+    a one-line error naming the width, before any work."""
+    with pytest.raises(pp.InvalidInputError, match=match):
+        pp.deposit(np.r_[np.full(4, 0.5), np.full(20, 0.05)], width=width, boundary=boundary, dim=3,
+                   progress=False)
+
+
 def test_rule_errors():
     with pytest.raises(pp.InvalidInputError, match="rule='drop'"):
         pp.deposit(np.full(50, 0.5), width=5.0, dim=3, rule="drop")
