@@ -51,6 +51,8 @@ T_HST = T_S3 + ("tests/test_stages_homogenize.py", "tests/test_homogenize.py")
 T_VOX = T_S3 + ("tests/test_io_voxel.py", "tests/test_homogenize.py")
 T_ROLL = T_S3 + ("tests/test_deposit_roll.py", "tests/test_deposit3d.py")
 T_DEP3 = T_S3 + ("tests/test_deposit3d.py", "tests/test_deposit_roll.py", "tests/test_deposit_periodic_window.py")
+T_DEP3P = T_S3 + ("tests/test_deposit3d.py::test_pruned_search_equals_the_exhaustive_search",
+                  "tests/test_deposit3d.py", "tests/test_deposit_roll.py")
 T_PROF = T_S3 + ("tests/test_deposit_roll.py", "tests/test_stages_protocols.py")
 T_RIG = T_S3 + ("tests/test_mechanics_rigidity.py",)
 T_REG = T_S3 + ("tests/test_registry.py", "tests/test_declarations.py", "tests/test_options.py")
@@ -259,6 +261,29 @@ ROUND3 = [
            "elif gbest[3] < np.inf and per[0] and per[1]:",
            "elif gbest[3] < np.inf and per[0]:",
            T_DEP3, "dropped condition (roll with a wall on y)"),
+    # the surface rule's per-radius caches and pruned fallback (issue 35, second pass)
+    Mutant("r3-35-slot-reach", K + "deposit3d.py",
+           "if h2 <= (rad[k] + r + 2.0 * slot_r[cc] + cmargin) ** 2:",
+           "if h2 <= (rad[k] + r + slot_r[cc] + cmargin) ** 2:",
+           T_DEP3P, "missing term (a slot's cache forgotten only within r_k + r_c + r: stale candidates)"),
+    Mutant("r3-35-none-at-all", K + "deposit3d.py",
+           "elif valid and cache_f[s, c, fo + 4] == np.inf:",
+           "elif valid and cache_f[s, c, fo + 4] >= 0.0:",
+           T_DEP3P, "wrong condition (\"none below a threshold\" read as \"no candidate at all\")"),
+    Mutant("r3-35-fallback-window", K + "deposit3d.py",
+           "zlo = sz - 4.0 * math.sqrt(tol) * Rs if strict else -np.inf",
+           "zlo = sz - 4.0 * math.sqrt(tol) * Rs",
+           T_DEP3P, "dropped condition (the envelope's lower limit applied under overhangs)"),
+    Mutant("r3-35-forget-dead", K + "deposit3d.py",
+           "            _forget_overhang(dead[q], pos,",
+           "            0 and _forget_overhang(dead[q], pos,",
+           T_DEP3P, "missing step (fallback caches kept after a supporting neighbour dies)"),
+    Mutant("r3-35-offer-precheck", K + "deposit3d.py",
+           "                if p[2] <= best[0] + tol * r:  # else not better than the best (_better): skip the call\n"
+           "                    _offer(p, r, s, int(nb[a, 4])",
+           "                if p[2] < best[0] - tol * r:  # else not better than the best (_better): skip the call\n"
+           "                    _offer(p, r, s, int(nb[a, 4])",
+           T_DEP3P, "wrong bound (candidates tied in height with the best skipped: the tie rule broken)"),
     Mutant("r3-35-profile-slab", S + "analysis/deposits.py",
            "v = np.pi * (r * r * (hi - lo) - (hi**3 - lo**3) / 3.0)",
            "v = np.pi * (r * r * (hi - lo) - (hi**3 - lo**3) / 2.0)",
