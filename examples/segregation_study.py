@@ -73,6 +73,7 @@ def run(cases, rules, seeds, width, depth, n_layers, time_limit):
                 pr = small_fraction_profile(pk, window=(0.0, top - 1.0), n_layers=n_layers, blocks=3)
                 row = {"case": case, "rule": rule, "seed": seed, "n": pk.n, "width": width,
                        "cpu_seconds": cpu, "wall_seconds": wall, "loadavg": load, "min_gap": float(pk.min_gap()),
+                       "overhang_placements": int(pk.meta.get("overhang_placements", 0)),
                        **{k: (v.tolist() if isinstance(v, np.ndarray) else v) for k, v in pr.items()},
                        "surface_height": float(top)}
                 rows.append(row)
@@ -118,7 +119,7 @@ def plot(rows, path):
             ax.errorbar(f, np.asarray(sel[0]["height"]), xerr=e, fmt="-o", ms=3, capsize=2, color=f"C{j}",
                         label=f"{label}: slope {slope:+.3f}±{se:.3f}/d (n={len(sel)})")
         ax.axvline(1.0, color="0.6", ls="--")
-        ax.set_xlim(0.0, 2.1)
+        ax.set_xlim(0.0, 2.4)
         ax.set_xlabel("small-sphere volume fraction / its deposit mean (–)")
         ax.set_ylabel("height above the floor (large diameters)")
         ax.set_title(f"3D deposits, rule = {rule}")
