@@ -122,17 +122,15 @@ def pairs_within(positions, radii, box, a=1.0, b=0.0, method="cells", periodic=N
         raise InvalidInputError(f"method={method!r}: allowed are 'cells' and 'brute'")
     reach_small = 2.0 * a * float(np.percentile(rad, 10)) + b
     nc = _choose_cells_flat(ebox, n, reach_small) if flat else choose_cells(ebox, n, reach_small)
-    # read-only views, whatever the caller passed (a Packing's arrays are read-only): numba
+    # writable arrays, whatever the caller passed (a Packing's arrays are read-only): numba
     # compiles one version per writability, so every caller shares the one that
-    # polypack._kernels.cells.warmup compiles (issue 33: cold start)
-    return cells.pairs_within(_read_only(pos), _read_only(rad), _read_only(ebox), float(a), float(b), nc)
+    # polypack._kernels.cells.warmup compiles and the packer's kernel calls (issue 33: cold start)
+    return cells.pairs_within(_writable(pos), _writable(rad), _writable(ebox), float(a), float(b), nc)
 
 
-def _read_only(a):
-    """A read-only view of ``a`` (no copy)."""
-    v = a.view()
-    v.setflags(write=False)
-    return v
+def _writable(a):
+    """``a`` if it is writable, else a copy (O(N), small beside the pair search)."""
+    return a if a.flags.writeable else a.copy()
 
 
 def min_relative_gap(positions, radii, box, method="cells", periodic=None):

@@ -300,14 +300,13 @@ def pairs_brute(pos, radii, box, a, b):
 
 def warmup():
     """Compile :func:`pairs_within` on a tiny input as :func:`polypack.neighbors.pairs_within`
-    calls it: positions, radii and box read-only (numba compiles one version per
-    writability of the arguments).
+    and :func:`polypack._kernels.edmd.build_lists` call it: every array writable (numba
+    compiles one version per writability of the arguments).  In ``polypack run``'s pool this
+    runs beside the packer's compilation, which then loads the version from the cache.
 
     The O(N^2) oracle :func:`pairs_brute` is left to the calls that use it (issue 33, cold start).
     """
     pos = np.random.default_rng(0).random((8, 3)) * 4.0
     rad = np.full(8, 0.3)
     box = np.full(3, 4.0)
-    for a in (pos, rad, box):
-        a.setflags(write=False)
     pairs_within(pos, rad, box, 1.0, 0.1, np.array([2, 2, 2], np.int64))
