@@ -72,6 +72,9 @@ def test_bonds_are_contacts(pair):
     assert rec["n_bonds"] <= n_contacts + 0.5
     assert n_contacts - rec["n_bonds"] <= 0.02 * n_contacts
     assert rec["bond_coordination"] == pytest.approx(2 * rec["n_bonds"] / N)
+    m = pair[1].meta["vem"]
+    assert m["coagulation_time"] == rec["time"] and m["coagulation_bond_coordination"] == rec["bond_coordination"]
+    assert m["coagulation_stop_reason"] == rec["stop_reason"]
 
 
 def test_stop_rule_is_stability_of_the_coordination(pair):

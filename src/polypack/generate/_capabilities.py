@@ -212,6 +212,8 @@ VEM_WORDS = {
     "vem.bonds_at_jamming": "structure bonds at jamming", "vem.final_void_diameter": "final void diameter (length units)",
     "vem.steps": "DEM steps", "vem.separation_sweeps": "overlap-removal sweeps",
     "vem.overlap_before_separation": "largest relative overlap before separation", "vem.wall_time": "wall time, s",
+    "vem.coagulation_time": "coagulation time (restructure), a²/D0",
+    "vem.coagulation_bond_coordination": "bond coordination after the coagulation",
 }
 
 register("protocol", "vem", VEMOptions, run_vem, Outputs(meta=("vem",), labels=VEM_WORDS), label="VEM",

@@ -668,8 +668,12 @@ def vem(
         "wall_time": wall,
         "series": series,
     }
-    if fin["coag"] is not None:
-        run["restructure_record"] = fin["coag"]
+    if fin["coag"] is not None:  # the scalars also at the top level: a study's record keeps those of meta["vem"]
+        coag = fin["coag"]
+        run["coagulation_time"] = coag["time"]
+        run["coagulation_bond_coordination"] = coag["bond_coordination"]
+        run["coagulation_stop_reason"] = coag["stop_reason"]
+        run["restructure_record"] = coag
     meta = {"generator": "vem", "seed": seed_record(ss), "vem": _record(o, ns, n_void, r0, run)}
     out = Packing(wpos * scale, radii, box * scale, species=species, meta=meta)
     gap = out.min_gap()
