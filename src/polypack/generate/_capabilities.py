@@ -281,6 +281,11 @@ class BrownianOptions:
                                 "(1971) lubrication correction of the relative normal motion of close pairs")
     lubrication_range: float = option(None, v.positive, "lubrication: gap beyond which pairs are free draining", unit="m",
                                       unset="cutoff - 2a (its maximum)")
+    bond_escape: str = option("none", v.choice("none", "kramers"), fill=False, doc=
+                              "primary-minimum bonds are permanent (none, default) or break by thermal escape over the "
+                              "barrier at the Smoluchowski first-passage rate of the pair (kramers; needs a shallow "
+                              "primary minimum, e.g. minimum_separation = bond_width = 4 nm; flexible or tangential "
+                              "bonds, free draining)")
 
 
 @dataclass(frozen=True)

@@ -52,6 +52,19 @@ a bond constrains is the bond model ``bonds``:
   (the stiffest the time step integrates stably, see :func:`brownian`): real
   solid contacts are stiffer still.  Kernel :func:`polypack._kernels.bd.run_tangential`.
 
+Bond escape
+-----------
+``bond_escape="none"`` (default): bonds are permanent (the primary minimum is hundreds of
+kBT deep at the default 0.4 nm minimum separation).  ``"kramers"``: every bond breaks at the
+rate ``1/τ`` of thermal escape out of the primary minimum, ``τ`` the Smoluchowski mean
+first-passage time of the isolated pair from the contact (reflecting at ``minimum_separation``)
+to the top of the barrier (:func:`bond_escape_time`); a broken pair is put at the barrier top
+along its line of centres, from where the dynamics decides whether it leaves or is captured
+again.  It matters only where the primary minimum is shallow: a contact separation of a few
+nm (surface roughness, hydration or Stern layers; Frens & Overbeek 1972) makes the 15 mV well
+about 14 kBT deep against 40 kBT at 0 mV (docs/brownian.md, issue 32 section).  Bonds are
+broken between kernel chunks short against ``τ`` (at most ``τ/50``).
+
 Hydrodynamics
 -------------
 ``hydrodynamics="free"`` (default) is the free-draining dynamics above, the seed's
@@ -89,6 +102,9 @@ Becker, V. & Briesen, H., arXiv:0808.3108 (2008) (a tangential force model for
 bonded colloidal particles).
 Honig, E. P., Roebersen, G. J. & Wiersema, P. H., J. Colloid Interface Sci. 36, 97 (1971)
 (hydrodynamic correction of the relative diffusion of two spheres).
+Frens, G. & Overbeek, J. Th. G., J. Colloid Interface Sci. 38, 376 (1972) (repeptization: a
+finite primary minimum when the surfaces cannot come closer than a hydration/Stern layer).
+Gardiner, C. W., *Handbook of Stochastic Methods* (Springer), §5.2.7 (mean first-passage time).
 """
 
 from __future__ import annotations
@@ -106,8 +122,8 @@ from ..packing import Packing
 from ._capabilities import BrownianOptions
 from .dlvo import DLVOParameters, _terms, dlvo_extrema, dlvo_parameters
 
-__all__ = ["brownian", "BrownianSimulation", "brownian_bonds", "BOND_MODELS", "HYDRODYNAMICS",
-           "MAX_STEP_FRACTION", "OVERLAP_TOLERANCE", "relative_mobility"]
+__all__ = ["brownian", "BrownianSimulation", "brownian_bonds", "BOND_MODELS", "HYDRODYNAMICS", "BOND_ESCAPE",
+           "MAX_STEP_FRACTION", "OVERLAP_TOLERANCE", "relative_mobility", "bond_escape_time"]
 
 #: Bond models: ``"rigid"`` (bonded spheres form rigid clusters: Brownian cluster
 #: dynamics, no rolling or sliding) and ``"flexible"`` (central bonds: free rolling).
@@ -118,6 +134,14 @@ BOND_MODELS = ("rigid", "flexible", "tangential")
 #: (free draining plus the Honig, Roebersen & Wiersema (1971) correction of the relative
 #: normal mobility of every unbonded close pair; see :func:`relative_mobility`).
 HYDRODYNAMICS = ("free", "lubrication")
+
+#: Bond escape models: ``"none"`` (bonds are permanent) and ``"kramers"`` (bonds break at the
+#: rate 1/τ of thermal escape out of the primary minimum, :func:`bond_escape_time`).
+BOND_ESCAPE = ("none", "kramers")
+#: Without a barrier beyond the contact, a pair has escaped where its energy rises above this (kBT).
+ESCAPE_EXIT_ENERGY = -1.0
+#: Bonds are broken between kernel chunks of at most this fraction of the escape time τ.
+ESCAPE_CHUNK = 0.02
 
 #: Ratio of the critical rolling moment to ``a`` times the adhesion force in the default of
 #: ``bonds="tangential"``: rolling-friction forces between silica microspheres are about 100
@@ -188,6 +212,67 @@ def _check_positive(name, value, allow_zero=False):
     if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
         raise InvalidInputError(f"{name}={value!r}: must be finite and {'>= 0' if allow_zero else '> 0'}")
     return v
+
+
+def bond_escape_time(surface_potential=0.0, exit_separation=None, **parameters):
+    """Mean time (s) for a bonded pair to leave the primary minimum, and the exit separation (m).
+
+    Smoluchowski first passage of the centre distance ``r`` of an isolated pair (relative
+    diffusion ``D = 2 D0``, free draining) in the DLVO potential ``V(r)``, reflecting at the
+    contact ``r0 = 2a + h_min`` (``minimum_separation``), absorbing at ``r_x = 2a + h_x``
+    (Gardiner, §5.2.7; radial form in three dimensions)::
+
+        τ = ∫_{r0}^{r_x} dr  exp(V(r)/kT) / (D r²)  ∫_{r0}^{r} r'² exp(-V(r')/kT) dr'
+
+    With a barrier beyond the contact, ``h_x`` is its top (:func:`~polypack.generate.dlvo.dlvo_extrema`);
+    otherwise the first separation where ``V >= ESCAPE_EXIT_ENERGY`` (-1 kBT).  For a deep
+    well (``ΔV = V(r_x) - V(r0) >> kT``, the force at the contact ``F0 = -V'(r0) < 0``) it
+    tends to Kramers' cusp-well form ``τ ≈ (r0/r_x)² exp(ΔV/kT) sqrt(2π kT/|V''(r_x)|) kT / (D |F0|)``.
+
+    Parameters
+    ----------
+    surface_potential : float or DLVOParameters
+        Ψ0 in volts, or a parameter object (:func:`~polypack.generate.dlvo.dlvo_parameters`).
+    exit_separation : float, optional
+        ``h_x`` in metres instead of the rule above (must exceed ``minimum_separation``).
+    **parameters
+        DLVO keywords (``minimum_separation``, ``hamaker``, ...), as :func:`~polypack.generate.dlvo.dlvo_potential`.
+
+    Returns
+    -------
+    (float, float)
+        ``τ`` in seconds (``inf`` when ``ΔV`` exceeds 700 kBT) and ``h_x`` in metres.
+    """
+    from scipy.integrate import cumulative_trapezoid
+
+    from .dlvo import _resolve, dlvo_potential
+
+    p = _resolve(surface_potential, parameters)
+    a, kT, h0 = p.radius, p.kT, p.minimum_separation
+    if exit_separation is None:
+        ex = dlvo_extrema(p)
+        if ex.has_secondary_minimum and ex.barrier_separation > h0:
+            hx = ex.barrier_separation
+        else:
+            hh = h0 + np.geomspace(1e-6 * a, 2.0 * a, 20000)
+            above = np.nonzero(dlvo_potential(2.0 * a + hh, p) / kT >= ESCAPE_EXIT_ENERGY)[0]
+            if above.size == 0:
+                raise InvalidInputError(f"bond_escape_time: V stays below {ESCAPE_EXIT_ENERGY} kT out to 2a")
+            hx = float(hh[above[0]])
+    else:
+        hx = _check_positive("exit_separation", exit_separation)
+        if hx <= h0:
+            raise InvalidInputError(f"exit_separation={hx!r} m must exceed minimum_separation={h0!r} m")
+    # grid dense at the contact, where exp(-V) is concentrated (the well is a cusp)
+    r = 2.0 + (h0 + (hx - h0) * np.concatenate(([0.0], np.geomspace(1e-9, 1.0, 40000)))) / a
+    v = dlvo_potential(r * a, p) / kT
+    dv = v.max() - v.min()
+    if dv > 700.0:
+        return math.inf, hx
+    inner = cumulative_trapezoid(r * r * np.exp(v.min() - v), r, initial=0.0)
+    outer = np.exp(v - v.max()) * inner / (2.0 * r * r)
+    tau = float(np.trapezoid(outer, r)) * math.exp(dv)
+    return tau * p.brownian_time, hx
 
 
 def _check_int(name, value, minimum):
@@ -508,6 +593,41 @@ class BrownianSimulation:
         """(3,) bool: axes along which a bonded cluster wraps the periodic box (percolation)."""
         return self._bd.wrapping_axes(self._pos, self._box, self._bonds, self.n_bonds)
 
+    def break_bonds(self, rows, gap):
+        """Remove the bonds in ``rows`` (indices into :attr:`bonds`) and move each pair apart to ``gap`` (m).
+
+        The two spheres move symmetrically along their line of centres (minimum image) until
+        their surface separation is ``gap``; other spheres are not moved (the next step's
+        projections remove any overlap this makes).  The bond list, the partner lists and, for
+        ``bonds="tangential"``, the anchors stay consistent (the last bond row fills each hole).
+        """
+        if self.bond_model == "rigid":
+            raise InvalidInputError('break_bonds: rigid clusters cannot split (bonds="rigid")')
+        g = _check_positive("gap", gap) / self.parameters.radius
+        nb = self.n_bonds
+        rows = np.unique(np.asarray(rows, dtype=np.int64))
+        if rows.size and (rows[0] < 0 or rows[-1] >= nb):
+            raise InvalidInputError(f"break_bonds: rows must lie in [0, {nb}), got {rows.min()}..{rows.max()}")
+        for k in rows[::-1]:
+            last = nb - 1
+            i, j = (int(x) for x in self._bonds[k])
+            self._bonds[k] = self._bonds[last]
+            if self.bond_model == "tangential":
+                self._anchors[k] = self._anchors[last]
+            nb = last
+            for x, y in ((i, j), (j, i)):
+                d = int(self._deg[x])
+                q = int(np.nonzero(self._adj[x, :d] == y)[0][0])
+                self._adj[x, q] = self._adj[x, d - 1]
+                self._deg[x] = d - 1
+            dv = self._pos[j] - self._pos[i]
+            dv -= self._box * np.round(dv / self._box)
+            r = float(np.linalg.norm(dv))
+            s = 0.5 * (2.0 + g - r) / max(r, 1e-12)
+            self._pos[i] -= s * dv
+            self._pos[j] += s * dv
+        self._istate[self._bd.I_NBONDS] = nb
+
     def _sweep(self, max_sweeps, overlap_only, tolerance=None):
         bd = self._bd
         q = self._params.copy()
@@ -581,6 +701,12 @@ def check_used(options: dict, sep: str = "=", prefix: str = "") -> None:
         if options.get(key) is not None and chosen[switch] != value:
             raise InvalidInputError(f"{prefix}{key}{sep}{options[key]!r}: only used with {switch} = {value!r}, "
                                     f"not with {switch} = {chosen[switch]!r}")
+    escape = options.get("bond_escape") or "none"
+    if escape != "none":
+        for switch, bad in (("bonds", "rigid"), ("hydrodynamics", "lubrication")):
+            if chosen[switch] == bad:
+                raise InvalidInputError(f"{prefix}bond_escape{sep}{escape!r}: not with {switch} = {bad!r} (the escape "
+                                        "rate is the free-draining pair's; rigid clusters cannot split)")
 
 
 def brownian_bonds(packing: Packing):
@@ -597,6 +723,53 @@ def brownian_bonds(packing: Packing):
     j = np.asarray(rec["j"], dtype=np.int64)
     shift = np.asarray(rec["shift"], dtype=np.int64).reshape(-1, 3)
     return i, j, shift
+
+
+class _Escape:
+    """Bond breaking of ``bond_escape="kramers"`` between kernel chunks (see :func:`brownian`)."""
+
+    def __init__(self, sim, p, seed):
+        width = sim.bond_width
+        if width is None or width < p.minimum_separation * (1 - 1e-12):
+            raise InvalidInputError(
+                f'bond_escape="kramers": bond_width={width!r} m must be at least minimum_separation='
+                f"{p.minimum_separation!r} m (the pair is bonded at the contact it escapes from)")
+        self.tau, self.exit_gap = bond_escape_time(p)
+        if self.exit_gap <= width:
+            raise InvalidInputError(
+                f'bond_escape="kramers": the escape exit at {self.exit_gap:.3g} m lies inside the bond shell '
+                f"(bond_width={width!r} m); use a smaller bond_width")
+        self.sim = sim
+        self.rng = np.random.default_rng(seed)
+        dt = sim.time_step
+        self.chunk = max(1, int(ESCAPE_CHUNK * self.tau / dt)) if math.isfinite(self.tau) else None
+        self.broken = 0
+        self.bond_time = 0.0  # integral of the bond count over time (s): broken / (bond_time / tau) ~ 1
+
+    def run(self, steps):
+        sim = self.sim
+        if self.chunk is None:
+            sim.run(steps)
+            return
+        done = 0
+        while done < steps:
+            m = min(self.chunk, steps - done)
+            sim.run(m)
+            done += m
+            nb = sim.n_bonds
+            h = m * sim.time_step
+            self.bond_time += nb * h
+            if nb:
+                rows = np.nonzero(self.rng.random(nb) < -math.expm1(-h / self.tau))[0]
+                if rows.size:
+                    sim.break_bonds(rows, self.exit_gap)
+                    self.broken += int(rows.size)
+
+    def record(self):
+        tb = self.sim.parameters.brownian_time
+        return {"escape_time": self.tau, "escape_time_reduced": self.tau / tb, "exit_separation": self.exit_gap,
+                "bonds_broken": self.broken, "bond_time": self.bond_time,
+                "chunk_steps": self.chunk}
 
 
 def _initial_positions(n, a, box_len, min_gap, seed):
@@ -647,6 +820,7 @@ def brownian(
     rolling_moment=None,
     hydrodynamics=_DEFAULTS["hydrodynamics"],
     lubrication_range=None,
+    bond_escape=_DEFAULTS["bond_escape"],
 ) -> Packing:
     """Coagulated colloidal gel by Brownian dynamics with DLVO forces.
 
@@ -716,6 +890,15 @@ def brownian(
     lubrication_range : float, optional
         ``"lubrication"``: gap (m) beyond which pairs are free draining; default and
         maximum ``cutoff - 2a`` (``a/2`` with the default cutoff).
+    bond_escape : {"none", "kramers"}
+        ``"none"`` (default): bonds are permanent.  ``"kramers"``: each bond breaks at the
+        rate ``1/τ`` of :func:`bond_escape_time` (thermal escape over the barrier; the pair
+        is put at the barrier top).  Only a shallow primary minimum makes ``τ`` finite on
+        the run's time scale: give ``minimum_separation`` of a few nm and ``bond_width`` at
+        least as large (capture at the contact).  Not with ``bonds="rigid"`` or
+        ``hydrodynamics="lubrication"``.  With reversible bonds the structure keeps
+        coarsening after the coordination has settled, so the structural stopping rule
+        fires early; ``min_time = max_time`` runs for a fixed time (docs/brownian.md).
     cutoff : float, optional
         Centre-distance cutoff of the DLVO force (m), default 2.5 a.
     record_interval : float, optional
@@ -768,13 +951,14 @@ def brownian(
                  coordination_tolerance=coordination_tolerance, cluster_tolerance=cluster_tolerance,
                  min_time=min_time, max_time=max_time, max_steps=max_steps, bonds=bonds,
                  sliding_stiffness=sliding_stiffness, rolling_stiffness=rolling_stiffness,
-                 rolling_moment=rolling_moment, hydrodynamics=hydrodynamics, lubrication_range=lubrication_range)
+                 rolling_moment=rolling_moment, hydrodynamics=hydrodynamics, lubrication_range=lubrication_range,
+                 bond_escape=bond_escape)
     _registry.check_call(BrownianOptions, {k: x for k, x in given.items() if x is not None})
     if bonds not in BOND_MODELS:
         raise InvalidInputError(f"bonds={bonds!r}: must be one of {', '.join(map(repr, BOND_MODELS))}")
     check_used(dict(bonds=bonds, hydrodynamics=hydrodynamics, sliding_stiffness=sliding_stiffness,
                     rolling_stiffness=rolling_stiffness, rolling_moment=rolling_moment,
-                    lubrication_range=lubrication_range))
+                    lubrication_range=lubrication_range, bond_escape=bond_escape))
     phi = float(volume_fraction)
     if not (0.0 < phi <= 0.55):
         raise InvalidInputError(f"volume_fraction={volume_fraction!r}: must be in (0, 0.55]")
@@ -794,7 +978,7 @@ def brownian(
     coordination_tolerance = _check_positive("coordination_tolerance", coordination_tolerance)
     cluster_tolerance = _check_positive("cluster_tolerance", cluster_tolerance)
     ss = as_seed_sequence(seed)
-    s_init, s_noise = ss.spawn(2)
+    s_init, s_noise, s_escape = ss.spawn(3)  # the first two as spawn(2): runs without escape unchanged
 
     t_wall = time.perf_counter()
     # initial fluid: a stable suspension with every surface gap at least two Debye lengths
@@ -805,6 +989,9 @@ def brownian(
                              hydrodynamics=hydrodynamics, lubrication_range=lubrication_range)
     dt = sim.time_step
     steps_per_record = max(1, int(round(record_interval / dt)))
+    escape = None
+    if bond_escape == "kramers":
+        escape = _Escape(sim, p, s_escape)
     window_records = max(1, int(round(stable_window / (steps_per_record * dt))))
     series = {"time": [0.0], "coordination": [0.0], "clusters": [n], "largest_cluster": [1],
               "largest_fraction": [1.0 / n]}
@@ -822,7 +1009,10 @@ def brownian(
                 if sim.time >= max_time * (1 - 1e-12) or (max_steps is not None and sim.steps >= max_steps):
                     break
                 k = steps_per_record if max_steps is None else min(steps_per_record, max_steps - sim.steps)
-                sim.run(k)
+                if escape is None:
+                    sim.run(k)
+                else:
+                    escape.run(k)
                 _, sizes = sim.clusters()
                 largest = int(sizes.max())
                 series["time"].append(sim.time)
@@ -874,6 +1064,8 @@ def brownian(
             "hydrodynamics": sim.hydrodynamics,
             "lubrication_range": sim.lubrication_range,
             "frozen_clusters": sim.frozen_clusters,
+            "bond_escape": bond_escape,
+            "escape": None if escape is None else escape.record(),
             "tangential": sim.tangential,
             "final_overlap_residual": residual,
             "bond_gap_max": float(gaps.max()) if gaps.size else 0.0,
