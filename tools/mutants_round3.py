@@ -59,6 +59,7 @@ T_REG = T_S3 + ("tests/test_registry.py", "tests/test_declarations.py", "tests/t
 T_GEN = T_S3 + ("tests/test_declarations.py", "tests/test_registry.py")
 T_VEMR = ("tests/test_vem_restructure.py",)
 T_BDK = ("tests/test_bd_kernel.py",)
+T_ESC = ("tests/test_brownian_escape.py",)
 
 ROUND3 = [
     # ============================================================== issue 32: Brownian-dynamics speed (bd.py)
@@ -443,6 +444,31 @@ ROUND3 = [
            "        path = sweep_report(out_dir, entries, title=name)",
            "        path = out_dir / \"report.html\"",
            T_SWEEP, "missing step (the sweep writes no report.html)"),
+    # ------------------------------------------------------------------ issue 32: reversible BD bonds (bond_escape)
+    Mutant("r3-32-escape-no-r2", S + "generate/brownian.py",
+           "outer = np.exp(v - v.max()) * inner / (2.0 * r * r)",
+           "outer = np.exp(v - v.max()) * inner / (2.0 * r)",
+           T_ESC, "wrong formula (radial first passage without the r² weight)"),
+    Mutant("r3-32-escape-d0", S + "generate/brownian.py",
+           "outer = np.exp(v - v.max()) * inner / (2.0 * r * r)",
+           "outer = np.exp(v - v.max()) * inner / (r * r)",
+           T_ESC, "wrong constant (pair diffusion D0 instead of 2 D0)"),
+    Mutant("r3-32-exit-secondary", S + "generate/brownian.py",
+           "            hx = ex.barrier_separation\n",
+           "            hx = ex.secondary_separation\n",
+           T_ESC, "wrong exit (secondary minimum instead of the barrier top)"),
+    Mutant("r3-32-break-per-step", S + "generate/brownian.py",
+           "rows = np.nonzero(self.rng.random(nb) < -math.expm1(-h / self.tau))[0]",
+           "rows = np.nonzero(self.rng.random(nb) < -math.expm1(-sim.time_step / self.tau))[0]",
+           T_ESC, "wrong rate (per-step probability applied once per chunk)"),
+    Mutant("r3-32-chunk-long", S + "generate/brownian.py",
+           "ESCAPE_CHUNK = 0.02",
+           "ESCAPE_CHUNK = 2.0",
+           T_ESC, "wrong constant (chunks longer than the escape time)"),
+    Mutant("r3-32-break-gap", S + "generate/brownian.py",
+           "s = 0.5 * (2.0 + g - r) / max(r, 1e-12)",
+           "s = (2.0 + g - r) / max(r, 1e-12)",
+           T_ESC, "wrong geometry (each sphere moved by the whole gap change)"),
 ]
 
 ISSUES = ("30", "31", "32", "34", "35", "36")
