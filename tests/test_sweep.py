@@ -1,4 +1,4 @@
-"""Sweeps of a study over one parameter and the heterogeneity report (seed 003 Table 2, Figs. 2, 6)."""
+"""Sweeps of a study over one parameter and the heterogeneity report (seed 003 Table 2, Figs. 2, 5, 6)."""
 
 from __future__ import annotations
 
@@ -31,6 +31,8 @@ def _study(n=64, values=(0.5, 2.0), **sweep):
     ({"bogus": 1}, "sweep.bogus: unknown key"),
     ({"values": [-1.0]}, "sweep value -1.0: protocol.void_ratio"),
     ({"values": [1, 1.0]}, "1 and 1.0 share the folder name void_ratio=1"),
+    ({"fig5_kn": [100.0, 0.0]}, "sweep.fig5_kn"),
+    ({"fig5_kn": [100.0]}, "sweep.fig5_kn"),
 ])
 def test_bad_sweeps_are_one_line_errors(sweep, match):
     with pytest.raises(InvalidInputError, match=match) as info:
@@ -288,6 +290,7 @@ def test_floppy_structures_are_zero_and_left_out_of_the_fit(tmp_path):
     assert [r["floppy"] for r in data["rows"]] == [0, 2]
     md = (tmp_path / "out" / "heterogeneity" / "table2.md").read_text()
     assert "| 0 (floppy) |" in md
+    assert data["fig5"]["ratio"] is None and "Fig. 5: no pack file" in data["fig5"]["note"]  # records only
     with pytest.raises(Exception):  # what the old rule fed to the fit: the floppy point breaks it
         bad = power_law_fit(rigid_a + [0.36], [amp * (x - a0) ** beta for x in rigid_a] + [1e-5])
         assert bad.a0 == pytest.approx(a0, rel=1e-3)
@@ -365,3 +368,63 @@ def test_sweep_writes_report_html_with_table2_beside_the_seed(tmp_path):
         assert cells[3] == f"{r['a'] / a_seed:.3f}" and cells[5] == f"{c_seed:.2f}" and cells[7] == g_seed
     assert page.count("data:image/png;base64") == 2  # Fig. 2 and Fig. 6
     assert "seed Fig. 6" in page and "Eq. (7)" in page
+
+
+def test_fig5_picks_the_brownian_set_when_there_is_one():
+    """Fig. 5's structures: the most and least heterogeneous rigid ones (largest and smallest a),
+    from the BD set when it holds two rigid structures (as the seed: Ψ0 = 15 and 0 mV), else from all."""
+    from polypack.studies.seed003_heterogeneity import _fig5_pick
+
+    pts = [{"a": 0.60, "rigid": True, "kind": "vem"}, {"a": 0.30, "rigid": True, "kind": "vem"},
+           {"a": 0.45, "rigid": True, "kind": "brownian"}, {"a": 0.70, "rigid": False, "kind": "brownian"},
+           {"a": 0.40, "rigid": True, "kind": "brownian"}, {"a": 0.10, "rigid": False, "kind": "vem"}]
+    assert _fig5_pick(pts)[:2] == (2, 4)
+    pts[4]["rigid"] = False  # one rigid BD structure: the pick is over every set
+    assert _fig5_pick(pts)[:2] == (0, 1)
+    assert _fig5_pick(pts[3:]) is None  # a single rigid structure: no Fig. 5
+
+
+@pytest.mark.slow
+def test_fig5_gp_against_kn_of_the_most_and_least_heterogeneous(tmp_path):
+    """Fig. 5 of the seed on a tiny sweep: the static tensor is linear in the stiffnesses at fixed
+    ks / kn, so G'p(kn) / kn is one constant per structure (to 1e-9); the HE / HO ratio is the one of
+    two direct elastic_tensor calls on the two packs; the structures are the largest and smallest a
+    among the rigid ones; G'p at kn = 100 N/m is Table 2's; the figure is inline in report.html."""
+    from polypack.ensemble.sweep import _label
+    from polypack.report.build import sweep_report
+
+    study = _study(n=48, values=(0.25, 0.5), fig5_kn=[25.0, 50.0, 100.0, 400.0])
+    study["analysis"]["pores"]["n_points"] = 2000
+    out = tmp_path / "h"
+    res = run_sweep(study, out, progress=False, echo=lambda s: None)
+    data = json.loads((out / "heterogeneity" / "fit.json").read_text())
+    f5 = data["fig5"]
+    kn = np.array(f5["kn_N_per_m"])
+    assert kn.tolist() == [25.0, 50.0, 100.0, 400.0]
+    rigid = [p for p in data["points"] if p["rigid"]]
+    assert len(rigid) >= 2, "the tiny sweep needs two rigid structures for the oracle"
+    he = max(rigid, key=lambda p: p["a"])
+    ho = min(rigid, key=lambda p: p["a"])
+    assert (f5["he"]["set"], f5["he"]["index"]) == (he["set"], he["index"])
+    assert (f5["ho"]["set"], f5["ho"]["index"]) == (ho["set"], ho["index"])
+    direct = {}
+    for name, p in (("he", he), ("ho", ho)):
+        g = np.array(f5[name]["G_Pa"])
+        assert np.all(g > 0)
+        slope = g / kn
+        assert np.ptp(slope) <= 1e-9 * slope.mean()  # linear in kn at ks = kn / 10
+        assert g[2] == pytest.approx(p["G_Pa"], rel=1e-9)  # kn = 100 N/m: Table 2's G'p
+        pk = pp.io.read(str(out / _label("protocol.void_ratio", p["value"]) / "realizations" / f"r{p['index']:04d}.gsd"))
+        net = pp.mechanics.BondNetwork.from_packing(pk, epsilon=0.01, normal_stiffness=50.0, shear_stiffness=5.0)
+        direct[name] = float(np.mean(pp.mechanics.elastic_tensor(net).shear_moduli))
+        assert g[1] == pytest.approx(direct[name], rel=1e-9)
+    ratio = np.array(f5["ratio"])
+    assert ratio == pytest.approx(direct["he"] / direct["ho"], rel=1e-9)
+    assert ratio[0] > 1.0  # the more heterogeneous structure is the stiffer one here
+    assert f"{ratio[0]:.3g}" in (out / "heterogeneity" / "table2.md").read_text()
+    assert (out / "heterogeneity" / "fig5.png").stat().st_size > 0
+    sweep_report(out, [(v, out / _label("protocol.void_ratio", v)) for v in res], title="h")
+    page = (out / "report.html").read_text()
+    assert page.count("data:image/png;base64") == 3  # Figs. 2, 5 and 6
+    assert "seed Fig. 5" in page and "G′p HE / G′p HO" in page
+    assert f"<td>{float(ratio[0]):.5g}</td>" in page

@@ -58,6 +58,8 @@ T_RIG = T_S3 + ("tests/test_mechanics_rigidity.py",)
 T_REG = T_S3 + ("tests/test_registry.py", "tests/test_declarations.py", "tests/test_options.py")
 T_GEN = T_S3 + ("tests/test_declarations.py", "tests/test_registry.py")
 T_VEMR = ("tests/test_vem_restructure.py",)
+T_FIG5 = ("tests/test_sweep.py::test_fig5_picks_the_brownian_set_when_there_is_one",
+          "tests/test_sweep.py::test_fig5_gp_against_kn_of_the_most_and_least_heterogeneous")
 T_BDK = ("tests/test_bd_kernel.py",)
 T_ESC = ("tests/test_brownian_escape.py",)
 
@@ -440,6 +442,18 @@ ROUND3 = [
            "pm(r.get(\"C\"), r.get(\"C_se\"), 2), f\"{s[2]:.2f}\" if s else",
            "pm(r.get(\"C\"), r.get(\"C_se\"), 2), f\"{s[3]:.2f}\" if s else",
            T_SWEEP, "wrong column (the seed's G'p shown as its C)"),
+    Mutant("r3-32-fig5-ks-fixed", S + "studies/seed003_heterogeneity.py",
+           "shear_stiffness=float(kn) * ratio))",
+           "shear_stiffness=ks0))",
+           T_FIG5, "option dropped (ks held at the study's value while kn varies: ks / kn not constant)"),
+    Mutant("r3-32-fig5-pick-swap", S + "studies/seed003_heterogeneity.py",
+           "return max(pool, key=lambda k: points[k][\"a\"]), min(pool, key=lambda k: points[k][\"a\"]), among",
+           "return min(pool, key=lambda k: points[k][\"a\"]), max(pool, key=lambda k: points[k][\"a\"]), among",
+           T_FIG5, "swapped roles (the least heterogeneous structure labelled HE)"),
+    Mutant("r3-32-fig5-ratio-inverted", S + "studies/seed003_heterogeneity.py",
+           "res[\"ratio\"] = (np.asarray(res[\"he\"][\"G_Pa\"]) / np.asarray(res[\"ho\"][\"G_Pa\"])).tolist()",
+           "res[\"ratio\"] = (np.asarray(res[\"ho\"][\"G_Pa\"]) / np.asarray(res[\"he\"][\"G_Pa\"])).tolist()",
+           T_FIG5, "inverted ratio (G'p^HO / G'p^HE)"),
     Mutant("r3-32-sweep-no-html", S + "_cli/run_commands.py",
            "        path = sweep_report(out_dir, entries, title=name)",
            "        path = out_dir / \"report.html\"",

@@ -9,13 +9,15 @@ A study file with a ``[sweep]`` table runs once per value of one parameter
     report = "heterogeneity"               # optional post-processing over all values
     include = []                           # run folders of other structure sets for the report
     modulus = "elastic"                    # G'p: static tensor (default) or "shear" (DEM G')
+    fig5_kn = [25, 50, 100, 200, 400]      # kn (N/m) of Fig. 5 (G'p of the most/least heterogeneous
+                                           # structure against kn); [] for none
 
 Every value is an ordinary study (same seed: common random numbers across values),
 written to ``<out>/<key>=<value>/`` with all the files of ``polypack run``; rerunning
 resumes each.
 
 ``report = "heterogeneity"`` then writes ``<out>/heterogeneity/``: the seed 003 study of
-:mod:`polypack.studies.seed003_heterogeneity` (Table 2, Figs. 2 and 6, the power law Eq. (7) of
+:mod:`polypack.studies.seed003_heterogeneity` (Table 2, Figs. 2, 5 and 6, the power law Eq. (7) of
 003_873b69fc71c74cf6.txt), over every swept value and the ``include``d run folders.
 """
 
@@ -33,7 +35,7 @@ __all__ = ["has_sweep", "run_sweep", "sweep_studies", "heterogeneity_report", "s
 from ..studies.seed003_heterogeneity import ELASTIC_DEFAULTS as _ELASTIC_DEFAULTS  # noqa: E402
 from ..studies.seed003_heterogeneity import SEED_TABLE2, heterogeneity_report, set_label  # noqa: E402,F401
 
-_SWEEP_KEYS = {"parameter", "values", "report", "include", "elastic", "modulus"}
+_SWEEP_KEYS = {"parameter", "values", "report", "include", "elastic", "modulus", "fig5_kn"}
 
 
 def _read(path_or_data):
@@ -97,7 +99,13 @@ def _check_sweep(sw) -> dict:
     mod = sw.get("modulus", "elastic")
     if mod not in ("elastic", "shear"):
         raise InvalidInputError(f"sweep.modulus = {mod!r}: allowed: \"elastic\" (static tensor), \"shear\" (DEM)")
-    return {"parameter": par, "values": vals, "report": rep, "include": inc, "elastic": el, "modulus": mod}
+    kn = sw.get("fig5_kn")
+    if kn is not None and (not isinstance(kn, list) or len(kn) == 1 or not all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) and x > 0 for x in kn)):
+        raise InvalidInputError(f"sweep.fig5_kn = {kn!r}: give two or more normal stiffnesses > 0 (N/m), "
+                                "or [] for no Fig. 5")
+    return {"parameter": par, "values": vals, "report": rep, "include": inc, "elastic": el, "modulus": mod,
+            "fig5_kn": None if kn is None else [float(x) for x in kn]}
 
 
 def _set_path(data, path, value):
@@ -182,8 +190,8 @@ def run_sweep(path_or_data, out=None, *, workers=1, executor=None, force=False, 
     if sw["report"] == "heterogeneity":
         files = heterogeneity_report(out, [(v, out / _label(sw["parameter"], v)) for v, _ in studies],
                                      parameter=sw["parameter"], include=sw["include"], elastic=sw["elastic"],
-                                     modulus=sw["modulus"])
+                                     modulus=sw["modulus"], fig5_kn=sw["fig5_kn"])
         echo("heterogeneity report: " + ", ".join(str(p) for p in files.values()))
-    # OUT/report.html (the values, Table 2 / Figs. 2 and 6) is written by the report layer above this
+    # OUT/report.html (the values, Table 2 / Figs. 2, 5 and 6) is written by the report layer above this
     # one: ``polypack run`` does it, or polypack.report.build.sweep_report(out, entries) after this call
     return results

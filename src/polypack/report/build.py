@@ -654,7 +654,8 @@ def sweep_report(out, entries, *, title=None):
     The page holds a table of the values (realizations finished, mean coordination, DOH
     ``a``, link to each value's report) and, when the sweep wrote the heterogeneity
     report (``OUT/heterogeneity/``), its Table 2, the fit of Eq. (7) of
-    003_873b69fc71c74cf6.txt and the figures (Figs. 2 and 6 of the seed) inline.
+    003_873b69fc71c74cf6.txt, the G′p^HE / G′p^HO table of Fig. 5 and the figures (Figs. 2, 5 and 6
+    of the seed) inline.
     Returns the path written (atomically).
     """
     import base64
@@ -702,7 +703,19 @@ def sweep_report(out, entries, *, title=None):
                          f"{_num(f.get('prefactor'))} ± {_num(f.get('prefactor_err'))} MPa. "
                          "Seed: a0 = 0.373 ± 0.001, β = 0.187 ± 0.032.</p>")
         parts.append(f"<p>{_esc(fit.get('note', ''))}</p>")
+        f5 = fit.get("fig5")
+        if f5 and f5.get("ratio"):
+            parts.append(f"<p>{_esc(f5.get('note', ''))}. Static G′p (mean of C44, C55, C66) at each kn; the seed "
+                         "calibrates kn between 50 and 150 N/m (§3.1 of 003_873b69fc71c74cf6.txt).</p>")
+            parts.append(_table(("kn (N/m)", "G′p HE (MPa)", "G′p HO (MPa)", "G′p HE / G′p HO", "seed HE / HO"),
+                                [(_num(k), _num(1e-6 * he), _num(1e-6 * ho), _num(r), _num(f5.get("seed_ratio")))
+                                 for k, he, ho, r in zip(f5["kn_N_per_m"], f5["he"]["G_Pa"], f5["ho"]["G_Pa"],
+                                                         f5["ratio"])]))
+        elif f5:
+            parts.append(f"<p>{_esc(f5.get('note', ''))}</p>")
         for name, cap in (("fig2.png", "DOH a against the coordination number C (seed Fig. 2)"),
+                          ("fig5.png", "Plateau shear modulus G′p (MPa) of the most and the least heterogeneous "
+                                       "structure against the particle normal stiffness kn (N/m), seed Fig. 5"),
                           ("fig6.png", "Plateau shear modulus G′p (MPa) against the DOH a with the power-law fit "
                                        "of Eq. (7) of 003_873b69fc71c74cf6.txt (seed Fig. 6)")):
             p = het / name

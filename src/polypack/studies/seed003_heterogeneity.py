@@ -11,7 +11,12 @@ writes ``<out>/heterogeneity/``:
 * ``fit.json``: the power law Eq. (7) of 003_873b69fc71c74cf6.txt over every structure of
   every set (:func:`polypack.analysis.power_law_fit`);
 * ``fig2.png`` (C against a) and ``fig6.png`` (G'p against a with the fit), each with the
-  seed's Table 2 values beside the measurement.
+  seed's Table 2 values beside the measurement;
+* ``fig5.png``: Fig. 5 of 003_873b69fc71c74cf6.txt, the static G'p of the most and the least
+  heterogeneous rigid structure (largest and smallest ``a``; from the Brownian-dynamics set
+  when there is one, as the seed, else from every set) against the normal stiffness ``kn``
+  (:data:`FIG5_KN`, ``ks / kn`` of the study), and the ratio G'p^HE / G'p^HO per ``kn``
+  (seed: ≈ 3.4) in ``fit.json`` (``fig5``) and ``table2.md`` (:func:`stiffness_series`).
 
 Every set (each swept value, each included folder) is labelled by its study's protocol (its
 registered display name, :attr:`polypack.registry.Capability.title`) and the value that tells it
@@ -37,7 +42,8 @@ import numpy as np
 
 from ..errors import InvalidInputError
 
-__all__ = ["SEED_TABLE2", "ELASTIC_DEFAULTS", "FLOPPY_FLOOR", "heterogeneity_report", "set_label"]
+__all__ = ["SEED_TABLE2", "ELASTIC_DEFAULTS", "FLOPPY_FLOOR", "FIG5_KN", "SEED_FIG5_RATIO", "heterogeneity_report",
+           "set_label", "stiffness_series"]
 
 #: Table 2 of 003_873b69fc71c74cf6.txt (N = 8000, Φ = 0.4, kn = 100 N/m): VEM rows
 #: (N_V/N, a, C, G'p MPa, error) and BD rows (Ψ0 mV, a, C, G'p MPa, error).
@@ -52,6 +58,15 @@ SEED_TABLE2 = {
 #: ``[sweep.elastic]`` defaults of the report's own static tensor (Table 1 of the seed).
 #: ``stiffness``: "contact" (per contact, polypack's default) or "particle" (per ball, in series).
 ELASTIC_DEFAULTS = {"epsilon": 0.01, "normal_stiffness": 100.0, "shear_stiffness": 10.0, "stiffness": "contact"}
+
+
+#: Normal stiffnesses (N/m) of Fig. 5 of 003_873b69fc71c74cf6.txt (the seed calibrates kn between 50 and
+#: 150 N/m and keeps kn = 100 N/m); ks = kn times the study's ks / kn (Table 1: 1/10).
+FIG5_KN = (25.0, 50.0, 100.0, 200.0, 400.0)
+
+#: G'p^HE / G'p^HO of the seed's most and least heterogeneous BD structures (Ψ0 = 15 and 0 mV), §3.1 of
+#: 003_873b69fc71c74cf6.txt (experiment: 3.6 at Φ = 0.4).
+SEED_FIG5_RATIO = 3.4
 
 
 def _records(folder: Path):
@@ -222,7 +237,7 @@ def _seed_row(kind, key, value):
 
 
 def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=(), elastic=None, modulus="elastic",
-                         fmt="png"):
+                         fmt="png", fig5_kn=None):
     """Table 2, Figs. 2 and 6 and the fit of Eq. (7) of 003_873b69fc71c74cf6.txt over the structures of ``sets``.
 
     ``sets`` is a list of ``(value, run_folder)`` of the swept ``parameter``; ``include``
@@ -230,7 +245,8 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
     Φ = 0.4) that enter the fit and the figures.  Every set is labelled by its protocol
     kind and value (:func:`set_label`, e.g. ``"VEM N_V/N = 0.5"``, ``"Brownian Ψ0 = 14 mV"``)
     and compared with the seed's Table 2 row of that kind and value where there is one.
-    Returns ``{what: path}``.
+    ``fig5_kn``: the normal stiffnesses (N/m) of Fig. 5 (default :data:`FIG5_KN`; ``()``: no
+    Fig. 5).  Returns ``{what: path}``.
     """
     from .._util import atomic_path, make_folder
     from ..analysis.powerlaw import power_law_fit
@@ -242,6 +258,7 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
     sources = set()
     semantics = set()
     unconverged = []
+    where = []  # (folder, pack file, G'p source) of each point, for Fig. 5
     groups = [(Path(f), *set_label(f, parameter, v)) for v, f in sets] + [(Path(f), *set_label(f)) for f in include]
     for folder, label, kind, vkey, v in groups:
         vals, floppy = [], 0
@@ -261,6 +278,7 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
                 g, gsd_sd = 0.0, 0.0
                 floppy += 1
             vals.append((a, b, c, g, gsd_sd))
+            where.append((folder, gsd, src))
             points.append({"set": label, "kind": kind, "parameter": vkey, "value": v, "index": rec["index"],
                            "a": a, "b": b, "C": c,
                            "G_Pa": g, "G_sd_Pa": gsd_sd, "rigid": rigid})
@@ -296,6 +314,8 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
     if unconverged:
         fit_note += (f"; {len(unconverged)} structure(s) without a modulus (a shear test that did not converge, "
                      "or NaN in an old record) left out: " + ", ".join(unconverged[:8]))
+    fig5 = (None if fig5_kn is not None and len(fig5_kn) == 0
+            else _fig5(points, where, elastic, FIG5_KN if fig5_kn is None else tuple(fig5_kn)))
     files = {}
     key = parameter.split(".")[-1]
     cols = ["set", key, "realizations", "a", "a_se", "b", "C", "C_se", "G_MPa", "G_sd_MPa", "floppy"]
@@ -324,16 +344,108 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
                      f"{fit.a0_without_lowest:.4f}). Seed: a0 = 0.373 ± 0.001, beta = 0.187 ± 0.032.")
     else:
         lines.append(fit_note)
+    if fig5 is not None:
+        lines.append(fig5["note"] + ".")
     with atomic_path(rep / "table2.md") as tmp:
         Path(tmp).write_text("\n".join(lines) + "\n")
     files["table_md"] = rep / "table2.md"
     with atomic_path(rep / "fit.json") as tmp:
         Path(tmp).write_text(json.dumps({"fit": fit.to_dict() if fit is not None else None, "note": fit_note,
                                          "points": points, "rows": rows, "g_source": sorted(sources),
-                                         "elastic": elastic, "units": "MPa"}, indent=1))
+                                         "elastic": elastic, "fig5": fig5, "units": "MPa"}, indent=1))
     files["fit"] = rep / "fit.json"
     files.update(_plots(rep, points, fit, fmt))
+    if fig5 is not None and fig5.get("ratio") is not None:
+        files["fig5"] = _plot_fig5(rep, fig5, fmt)
     return files
+
+
+def _study_elastic(folder: Path, elastic, src):
+    """The elastic settings that made a structure's G'p: the study's resolved ``[analysis.elastic]``
+    when its record gave the modulus, else the report's own (``[sweep.elastic]``, distance bonds)."""
+    if src == "[analysis.elastic]":
+        try:
+            with open(folder / "study.resolved.json", encoding="utf-8") as fh:
+                opts = json.load(fh).get("study", {}).get("analysis", {}).get("elastic")
+        except (OSError, ValueError):
+            opts = None
+        if isinstance(opts, dict):
+            return dict(opts)
+    return {"bonds": "distance", "epsilon": elastic["epsilon"], "normal_stiffness": elastic["normal_stiffness"],
+            "shear_stiffness": elastic["shear_stiffness"], "stiffness": elastic.get("stiffness", "contact"),
+            "radius": 0.0}
+
+
+def stiffness_series(pack, opts, kn_values=FIG5_KN):
+    """Static G'p (mean of C44, C55, C66) of one pack at each normal stiffness of ``kn_values``.
+
+    The network is that of :func:`polypack.mechanics.stages.network_of` with ``opts``
+    (the study's ``[analysis.elastic]`` table: bond rule, ``epsilon``, stiffness semantics)
+    and ``ks = kn * (ks / kn of opts)`` (Table 1 of 003_873b69fc71c74cf6.txt: 1/10); the tensor
+    is :func:`polypack.mechanics.elastic_tensor` with the options' rotations, radius and solver.
+    Fig. 5 of 003_873b69fc71c74cf6.txt.  Returns ``(G'p array in Pa, ks / kn)``.
+    """
+    from ..mechanics import elastic_tensor
+    from ..mechanics.stages import _stiffnesses, network_of
+
+    kns = np.asarray(kn_values, dtype=np.float64)
+    if kns.ndim != 1 or kns.size < 2 or not np.all(np.isfinite(kns) & (kns > 0)):
+        raise InvalidInputError(f"fig5 kn values = {list(np.atleast_1d(kn_values))!r}: give two or more "
+                                "stiffnesses > 0 (N/m)")
+    kn0, ks0 = _stiffnesses(opts)
+    ratio = ks0 / kn0 if kn0 > 0 else 0.1
+    radius = float(opts.get("radius", 0.25e-6) or 0.0)
+    out = []
+    for kn in kns:
+        net, _ = network_of(pack, dict(opts, normal_stiffness=float(kn), shear_stiffness=float(kn) * ratio))
+        et = elastic_tensor(net, rotations=opts.get("rotations", True), radius=radius if radius > 0 else None,
+                            solver=opts.get("solver", "auto"))
+        out.append(float(np.mean(et.shear_moduli)))
+    return np.asarray(out), float(ratio)
+
+
+def _fig5_pick(points):
+    """``(he, ho, among)``: indices of the most and least heterogeneous rigid structure (largest and
+    smallest ``a``) of the Brownian-dynamics set(s) when they hold two or more rigid structures (the seed's
+    Ψ0 = 15 and 0 mV), else of every set; None when fewer than two rigid structures differ in ``a``."""
+    rigid = [k for k, p in enumerate(points) if p["rigid"]]
+    bd = [k for k in rigid if points[k].get("kind") == "brownian"]
+    pool, among = (bd, "the Brownian-dynamics set(s), as the seed") if len(bd) >= 2 else (rigid, "every set")
+    if len(pool) < 2 or len({points[k]["a"] for k in pool}) < 2:
+        return None
+    return max(pool, key=lambda k: points[k]["a"]), min(pool, key=lambda k: points[k]["a"]), among
+
+
+def _fig5(points, where, elastic, kn_values):
+    """Fig. 5 of 003_873b69fc71c74cf6.txt over the report's structures: ``dict`` for fit.json."""
+    from .. import io
+
+    pick = _fig5_pick(points)
+    if pick is None:
+        return {"kn_N_per_m": list(map(float, kn_values)), "ratio": None,
+                "note": "Fig. 5: fewer than two rigid structures with different a: no G'p against kn"}
+    he, ho, among = pick
+    missing = [str(where[k][1]) for k in (he, ho) if not Path(where[k][1]).is_file()]
+    if missing:  # G'p read from the records of a run whose packs are gone
+        return {"kn_N_per_m": list(map(float, kn_values)), "ratio": None,
+                "note": f"Fig. 5: no pack file {missing[0]}: no G'p against kn"}
+    res = {"kn_N_per_m": list(map(float, kn_values)), "among": among}
+    for name, k in (("he", he), ("ho", ho)):
+        folder, gsd, src = where[k]
+        opts = _study_elastic(folder, elastic, src)
+        g, ratio = stiffness_series(io.read(str(gsd)), opts, kn_values)
+        p = points[k]
+        res[name] = {"set": p["set"], "index": p["index"], "a": p["a"], "G_Pa": g.tolist(),
+                     "ks_over_kn": ratio, "settings": {kk: opts.get(kk) for kk in
+                                                       ("bonds", "epsilon", "stiffness", "radius")}}
+    res["ratio"] = (np.asarray(res["he"]["G_Pa"]) / np.asarray(res["ho"]["G_Pa"])).tolist()
+    res["seed_ratio"] = SEED_FIG5_RATIO
+    res["note"] = (f"Fig. 5: most heterogeneous {res['he']['set']} r{res['he']['index']:04d} (a = {res['he']['a']:.3f}),"
+                   f" least {res['ho']['set']} r{res['ho']['index']:04d} (a = {res['ho']['a']:.3f}), among the rigid "
+                   f"structures of {among}; G'p^HE/G'p^HO = "
+                   + ", ".join(f"{r:.3g}" for r in res["ratio"]) + " at kn = "
+                   + ", ".join(f"{k:g}" for k in kn_values) + f" N/m (seed ≈ {SEED_FIG5_RATIO})")
+    return res
 
 
 def _g_cell(row):
@@ -407,3 +519,35 @@ def _plots(rep, points, fit, fmt):
     plt.close(fig)
     files["fig6"] = rep / f"fig6.{fmt}"
     return files
+
+
+def _plot_fig5(rep, fig5, fmt):
+    """Fig. 5 of 003_873b69fc71c74cf6.txt: G'p (MPa) of the most and least heterogeneous structure against kn."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from .._util import atomic_path
+
+    kn = np.asarray(fig5["kn_N_per_m"])
+    fig, ax = plt.subplots(figsize=(5, 4))
+    for name, mk, words in (("he", "s", "most heterogeneous"), ("ho", "o", "least heterogeneous")):
+        d = fig5[name]
+        ax.plot(kn, np.asarray(d["G_Pa"]) * 1e-6, mk + "-", ms=5,
+                label=f"{words}: {d['set']}, realization {d['index']} (a = {d['a']:.3f})")
+    per = "per particle, in series" if fig5["he"]["settings"].get("stiffness") == "particle" else "per contact"
+    ax.set_xlabel(f"normal stiffness kn (N/m, {per}); ks = kn × {fig5['he']['ks_over_kn']:.3g}")
+    ax.set_ylabel("plateau storage modulus G'p (MPa), static")
+    r = fig5["ratio"]
+    ax.set_title(f"seed 003 Fig. 5: G'p against kn; G'p(HE) / G'p(HO) = {min(r):.3g}–{max(r):.3g} "
+                 f"(seed ≈ {fig5['seed_ratio']})", fontsize=8)
+    ax.set_xlim(left=0.0)
+    ax.set_ylim(bottom=0.0)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    path = rep / f"fig5.{fmt}"
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format=fmt, dpi=130)
+    plt.close(fig)
+    return path
