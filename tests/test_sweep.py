@@ -428,3 +428,31 @@ def test_fig5_gp_against_kn_of_the_most_and_least_heterogeneous(tmp_path):
     assert page.count("data:image/png;base64") == 3  # Figs. 2, 5 and 6
     assert "seed Fig. 5" in page and "G′p HE / G′p HO" in page
     assert f"<td>{float(ratio[0]):.5g}</td>" in page
+
+
+@pytest.mark.slow
+def test_fig5_uses_the_studys_elastic_settings(tmp_path):
+    """With [analysis.elastic] in the study, Fig. 5 bonds and scales as that stage did (per-particle
+    stiffnesses in series, radius 0.25 µm, the study's ks / kn = 0.2, not the default 1/10): G'p at
+    kn = 100 N/m is the record's own, and at kn = 300 N/m it is a direct elastic_tensor call."""
+    from polypack.ensemble.sweep import _label
+
+    d = _study(n=48, values=(0.25, 0.5), fig5_kn=[50.0, 100.0, 300.0])
+    d["analysis"]["pores"]["n_points"] = 2000
+    d["analysis"]["elastic"] = {"epsilon": 0.01, "normal_stiffness": 100.0, "shear_stiffness": 20.0,
+                                "radius": 0.25e-6, "stiffness": "particle"}
+    out = tmp_path / "h"
+    run_sweep(d, out, progress=False, echo=lambda s: None)
+    data = json.loads((out / "heterogeneity" / "fit.json").read_text())
+    f5 = data["fig5"]
+    assert data["g_source"] == ["[analysis.elastic]"] and f5["ratio"] is not None
+    for name in ("he", "ho"):
+        s = f5[name]
+        assert s["ks_over_kn"] == pytest.approx(0.2, rel=1e-12) and s["settings"]["stiffness"] == "particle"
+        p = next(q for q in data["points"] if (q["set"], q["index"]) == (s["set"], s["index"]))
+        assert s["G_Pa"][1] == pytest.approx(p["G_Pa"], rel=1e-9)
+        pk = pp.io.read(str(out / _label("protocol.void_ratio", p["value"]) / "realizations" / f"r{p['index']:04d}.gsd"))
+        net = pp.mechanics.BondNetwork.from_packing(pk, epsilon=0.01, normal_stiffness=300.0, shear_stiffness=60.0,
+                                                    stiffness="particle")
+        g = float(np.mean(pp.mechanics.elastic_tensor(net, radius=0.25e-6).shear_moduli))
+        assert s["G_Pa"][2] == pytest.approx(g, rel=1e-9)

@@ -59,7 +59,8 @@ T_REG = T_S3 + ("tests/test_registry.py", "tests/test_declarations.py", "tests/t
 T_GEN = T_S3 + ("tests/test_declarations.py", "tests/test_registry.py")
 T_VEMR = ("tests/test_vem_restructure.py",)
 T_FIG5 = ("tests/test_sweep.py::test_fig5_picks_the_brownian_set_when_there_is_one",
-          "tests/test_sweep.py::test_fig5_gp_against_kn_of_the_most_and_least_heterogeneous")
+          "tests/test_sweep.py::test_fig5_gp_against_kn_of_the_most_and_least_heterogeneous",
+          "tests/test_sweep.py::test_fig5_uses_the_studys_elastic_settings")
 T_BDK = ("tests/test_bd_kernel.py",)
 T_ESC = ("tests/test_brownian_escape.py",)
 
@@ -450,6 +451,10 @@ ROUND3 = [
            "return max(pool, key=lambda k: points[k][\"a\"]), min(pool, key=lambda k: points[k][\"a\"]), among",
            "return min(pool, key=lambda k: points[k][\"a\"]), max(pool, key=lambda k: points[k][\"a\"]), among",
            T_FIG5, "swapped roles (the least heterogeneous structure labelled HE)"),
+    Mutant("r3-32-fig5-study-settings-ignored", S + "studies/seed003_heterogeneity.py",
+           "    if src == \"[analysis.elastic]\":\n",
+           "    if src == \"[analysis.shear]\":\n",
+           T_FIG5, "option dropped (the study's [analysis.elastic] settings ignored: the report's defaults)"),
     Mutant("r3-32-fig5-ratio-inverted", S + "studies/seed003_heterogeneity.py",
            "res[\"ratio\"] = (np.asarray(res[\"he\"][\"G_Pa\"]) / np.asarray(res[\"ho\"][\"G_Pa\"])).tolist()",
            "res[\"ratio\"] = (np.asarray(res[\"ho\"][\"G_Pa\"]) / np.asarray(res[\"he\"][\"G_Pa\"])).tolist()",
