@@ -144,33 +144,57 @@ def _full_sweeps(pos, box, p, pi, pj, bonded):
     return pos, bonded
 
 
-@pytest.mark.parametrize("seed", [1, 2])
+def _project_with(margin, pos0, box, p, lists, flag0):
+    pi, pj, img = lists
+    n = pos0.shape[0]
+    pos = pos0.copy()
+    flag = flag0.copy()
+    istate = np.zeros(bd.N_ISTATE, np.int64)
+    status = bd._project(pos, box, p, np.zeros(bd.N_STATE), istate, pi, pj, flag, img,
+                         np.zeros((n * 12, 2), np.int64), np.zeros((n, 24), np.int64), np.zeros(n, np.int64),
+                         np.empty(pi.size, np.int64), np.zeros(n), margin)
+    assert status == 0
+    return pos, flag, istate
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
 def test_projection_near_list_gives_the_full_sweeps(seed):
     """The sweeps after the first visit only the pairs that can act (bd._project): the result is that of
-    plain full sweeps, for any margin (huge: every pair kept; tiny: the fallback to a full sweep fires)."""
-    pos0, box, p = _dense(seed)
-    n = pos0.shape[0]
-    adj0 = np.zeros((n, 24), np.int64)
-    deg0 = np.zeros(n, np.int64)
-    pi, pj, flag0, img = bd._build(pos0, box, p, adj0, deg0, np.array([3, 3, 3], np.int64))
-    ref, ref_bonded = _full_sweeps(pos0, box, p, pi, pj, flag0)
-    outs = []
-    for margin in (1e3, 0.1, 1e-3, 0.0):
-        pos = pos0.copy()
-        flag = flag0.copy()
-        state = np.zeros(bd.N_STATE)
-        istate = np.zeros(bd.N_ISTATE, np.int64)
-        status = bd._project(pos, box, p, state, istate, pi, pj, flag, img, np.zeros((n * 12, 2), np.int64),
-                             adj0.copy(), deg0.copy(), np.empty(pi.size, np.int64), np.zeros(n), margin)
-        assert status == 0
-        assert istate[bd.I_SWEEPS] == p[bd.P_SWEEPS]
-        outs.append(pos)
-        np.testing.assert_array_equal(flag, ref_bonded)
-        assert istate[bd.I_NBONDS] == ref_bonded.sum()
-    assert np.abs(ref - pos0).max() > 0.1  # the sweeps moved spheres
-    np.testing.assert_allclose(outs[0], ref, rtol=0, atol=1e-12)
-    for out in outs[1:]:
-        np.testing.assert_array_equal(out, outs[0])
+    plain full sweeps, for any margin (huge: every pair kept; tiny: the fallback to a full sweep fires).
+    Two starts: random spheres (large corrections), and a relaxed pack jiggled by 0.03 radii
+    (corrections of the order of the margins, so that the near lists are used and the bound matters);
+    a few pairs are bonded beforehand and stretched far beyond the shell."""
+    pos_rand, box, p = _dense(seed)
+    n = pos_rand.shape[0]
+    cells = np.array([3, 3, 3], np.int64)
+    pi, pj, flag_r, img = bd._build(pos_rand, box, p, np.zeros((n, 24), np.int64), np.zeros(n, np.int64), cells)
+    q = p.copy()
+    q[bd.P_SWEEPS] = 60
+    q[bd.P_OVERLAP_ONLY] = 1.0
+    relaxed, _, _ = _project_with(1e3, pos_rand, box, q, (pi, pj, img), flag_r)
+    rng = np.random.default_rng(seed)
+    starts = [pos_rand, relaxed + rng.normal(0.0, 0.03, relaxed.shape)]
+    for pos0 in starts:
+        # the list of the jiggled pack is rebuilt (image counts of its own positions)
+        pi, pj, flag0, img = bd._build(pos0, box, p, np.zeros((n, 24), np.int64), np.zeros(n, np.int64), cells)
+        d = pos0[pj] - pos0[pi]
+        d -= box * np.round(d / box)
+        r = np.sqrt((d * d).sum(1))
+        far = np.flatnonzero((r > 2.3) & (r < 2.8))[::7]
+        assert far.size >= 5
+        flag0[far] = 1
+        ref, ref_bonded = _full_sweeps(pos0, box, p, pi, pj, flag0)
+        assert np.abs(ref - pos0).max() > 0.1  # the sweeps moved spheres
+        outs = []
+        for margin in (1e3, 0.5, 0.2, 0.1, 0.05, 0.02, 1e-3, 0.0):
+            pos, flag, istate = _project_with(margin, pos0, box, p, (pi, pj, img), flag0)
+            assert istate[bd.I_SWEEPS] == p[bd.P_SWEEPS]
+            np.testing.assert_array_equal(flag, ref_bonded)
+            assert istate[bd.I_NBONDS] == ref_bonded.sum() - far.size
+            outs.append(pos)
+        np.testing.assert_allclose(outs[0], ref, rtol=0, atol=1e-12)
+        for out in outs[1:]:
+            np.testing.assert_array_equal(out, outs[0])
 
 
 def test_far_periodic_images_give_the_same_step():

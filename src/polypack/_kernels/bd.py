@@ -347,7 +347,7 @@ def _project(pos, box, params, state, istate, pi, pj, flag, img, bonds, adj, deg
     tally = 0.0  # largest entry of moved since the near list was collected
     for _sweep in range(sweeps):
         worst = 0.0
-        use_near = nnear >= 0
+        use_near = nnear >= 0 and tally < half_margin  # else skipped pairs may already act
         collect = not use_near
         count = nnear if use_near else npair
         if collect:
