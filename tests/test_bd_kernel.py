@@ -197,6 +197,51 @@ def test_projection_near_list_gives_the_full_sweeps(seed):
             np.testing.assert_array_equal(out, outs[0])
 
 
+def _overlap_sweeps(pos0, pi, pj, sweeps):
+    """Overlap-only projections of hand-placed spheres in a large box (no images) over the hand-ordered
+    pair list (pi, pj) for each margin; every result must be the plain full sweeps' (margin 0) bit for bit."""
+    box = np.full(3, 40.0)
+    p = np.zeros(bd.N_PARAMS)
+    p[bd.P_BOND_WIDTH] = 0.05
+    p[bd.P_SWEEPS] = sweeps
+    p[bd.P_PROJ_TOL] = 0.0
+    p[bd.P_OVERLAP_ONLY] = 1.0
+    lists = (pi, pj, np.zeros((pi.size, 3), np.int64))
+    flag = np.zeros(pi.size, np.uint8)
+    ref, _, _ = _project_with(0.0, pos0, box, p, lists, flag)
+    assert np.abs(ref - pos0).max() > 0.01
+    for margin in np.concatenate([np.geomspace(1e-3, 1.0, 61), [1e3]]):
+        pos, _, istate = _project_with(margin, pos0, box, p, lists, flag)
+        assert istate[bd.I_SWEEPS] == sweeps
+        np.testing.assert_array_equal(pos, ref, err_msg=f"margin {margin}")
+
+
+def test_projection_near_list_resumes_at_the_pair_after_the_trigger():
+    """Three spheres in a row A-B-C overlapping by 0.1 and 0.06, pairs (A, B), (B, C): the second
+    sweep uses the near list, and for margins where B's tally crosses half the margin at (A, B), the
+    sweep goes on as a full one from the very next pair (B, C), which still overlaps (skipping it, as a
+    restart one pair too far would, changes the result)."""
+    pos0 = np.array([[10.0, 10.0, 10.0], [11.9, 10.0, 10.0], [13.84, 10.0, 10.0]])
+    _overlap_sweeps(pos0, np.array([0, 1]), np.array([1, 2]), 3)
+
+
+def test_projection_near_list_counts_the_second_sphere_of_a_pair():
+    """Spheres J and K 2.11 apart, their pair listed first (left out of the near list for margins
+    below 0.11); J is the second sphere of three pairs with spheres I1..I3 on its far side and K of
+    three pairs with L1..L3 (overlaps 0.06, at 40 degrees from the J-K axis).  One sweep moves each I
+    and L by 0.03 but J and K by about 0.09 towards each other, so that they overlap: the tally must
+    count the second sphere's movement, else the next sweep visits the near list only and misses
+    the J-K contact."""
+    th = np.radians(40.0)
+    j = np.array([10.0, 10.0, 10.0])
+    k = j + [2.11, 0.0, 0.0]
+    pts = [j, k]
+    for c, sgn in ((j, -1.0), (k, 1.0)):
+        for phi in np.radians([0.0, 120.0, 240.0]):
+            pts.append(c + sgn * 1.94 * np.array([np.cos(th), np.sin(th) * np.cos(phi), np.sin(th) * np.sin(phi)]))
+    _overlap_sweeps(np.array(pts), np.array([0, 2, 3, 4, 5, 6, 7]), np.array([1, 0, 0, 0, 1, 1, 1]), 3)
+
+
 def test_far_periodic_images_give_the_same_step():
     """Unwrapped positions several boxes away (image counts |q| >= 2 in the Verlet list) give the
     same forces, captures and projections as the wrapped ones."""
