@@ -74,6 +74,7 @@ ROUND3 = [
            "use_near = nnear >= 0 and tally < half_margin",
            "use_near = nnear >= 0",
            T_BDK, "dropped condition (near list used although the last full sweep moved spheres beyond the margin)"),
+    # equivalent (tools/mutants_result.md): a bonded pair left out moves by >= margin / 2 in that sweep
     Mutant("r3-32-near-keep-bonded", K + "bd.py",
            "if collect and (flag[k] != 0 or r2 < keep2):",
            "if collect and r2 < keep2:",
