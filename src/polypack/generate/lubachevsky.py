@@ -15,6 +15,7 @@ import dataclasses
 import math
 import time
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -285,20 +286,52 @@ def pack(
     scatter, tested).  ``meta["fast_start"]`` records it; the pressure history
     starts where it ends.
     """
+    opt = _pack_options(tuning, species=species, max_pressure=max_pressure, pressure_window=pressure_window,
+                        jammed_reference_fraction=jammed_reference_fraction, max_events=max_events,
+                        fast_growth=fast_growth, fast_growth_until=fast_growth_until)
+    wall0 = time.perf_counter()
+    radii, species, start, dim = _parse_sizes(sizes, opt["species"], dim)
+    c = _check_pack_args(volume_fraction, growth_rate, max_collisions, max_seconds, opt, radii)
+    ss = as_seed_sequence(seed)
+    s = _set_up(radii, dim, start, c, opt, rng_from(ss))
+    chunk = _chunk_size(opt, s.n)
+    status, code, hist_rows, run_time = _run_chunks(s, c, opt, chunk, max_collisions, max_seconds, progress, wall0)
+    pos, box_out, gap, shrink = _to_user_units(s, c, status, code)
+    meta = _record(s, c, start, ss, status, hist_rows, box_out, gap, shrink, wall0, run_time)
+    out = Packing(pos, radii, box_out, species=species, meta=meta)
+    if status == "interrupted":
+        raise Interrupted(
+            f"pack interrupted at volume fraction {meta['volume_fraction']:.6g} after {meta['collisions']} collisions "
+            "(the partial pack is in .partial, status 'interrupted')",
+            partial=out,
+        )
+    return out
+
+
+def _pack_options(tuning, **options):
+    """The options of :func:`pack` with the speed knobs of ``tuning`` (a :class:`PackTuning` or None) in one dict."""
     if tuning is None:
         tuning = PackTuning()
     elif not isinstance(tuning, PackTuning):
         raise InvalidInputError(f"tuning={tuning!r}: must be a polypack.generate.PackTuning")
-    opt = dict(species=species, max_pressure=max_pressure, pressure_window=pressure_window,
-               jammed_reference_fraction=jammed_reference_fraction, max_events=max_events,
-               fast_growth=fast_growth, fast_growth_until=fast_growth_until, **dataclasses.asdict(tuning))
-    wall0 = time.perf_counter()
+    return dict(**options, **dataclasses.asdict(tuning))
 
-    radii, species, start, dim = _parse_sizes(sizes, opt["species"], dim)
+
+def _edmd_engine(dim):
+    """The EDMD kernel module of the dimension (:mod:`polypack._kernels.edmd2d` or :mod:`polypack._kernels.edmd`)."""
     if dim == 2:
         from .._kernels import edmd2d as edmd
     else:
         from .._kernels import edmd
+    return edmd
+
+
+def _check_pack_args(volume_fraction, growth_rate, max_collisions, max_seconds, opt, radii):
+    """Check the run options of :func:`pack`; the checked values as a namespace.
+
+    ``target`` (None for ``"jammed"``), ``gamma``, ``p_max``, ``skin``, ``dilute_skin``,
+    ``window``, ``fast`` and ``phi_fast`` (before it is capped at half the target).
+    """
     n = radii.size
     jammed_mode = isinstance(volume_fraction, str)
     if jammed_mode:
@@ -317,8 +350,7 @@ def pack(
     gamma = 0.02 if growth_rate is None else float(growth_rate)
     if not (gamma > 0.0 and math.isfinite(gamma)):
         raise InvalidInputError(f"growth_rate={growth_rate!r}: must be finite and > 0")
-    for name in ("max_collisions", "max_seconds"):
-        val = locals()[name]
+    for name, val in (("max_collisions", max_collisions), ("max_seconds", max_seconds)):
         if val is not None and not (float(val) > 0):
             raise InvalidInputError(f"{name}={val!r}: must be > 0 or None")
     p_max = float(opt["max_pressure"])
@@ -339,15 +371,32 @@ def pack(
     phi_fast = float(opt["fast_growth_until"])
     if not (0.0 <= phi_fast < 1.0):
         raise InvalidInputError(f"fast_growth_until={opt['fast_growth_until']!r}: must be in [0, 1)")
+    return SimpleNamespace(target=target, gamma=gamma, p_max=p_max, skin=skin, dilute_skin=dilute_skin,
+                           window=window, fast=fast, phi_fast=phi_fast)
 
-    ss = as_seed_sequence(seed)
-    rng = rng_from(ss)
+
+class _PackRun(SimpleNamespace):
+    """Internal state of one :func:`pack` run (internal units: mean radius 1 at ``t_unit``, thermal speed 1)."""
+
+    def phi_at(self, t):
+        return self.vol_unit * (t / self.t_unit) ** self.dim / self.box_vol
+
+
+def _set_up(radii, dim, start, c, opt, rng):
+    """Arrays, box and stopping times of a :func:`pack` run (draws the centres, then the velocities, from ``rng``).
+
+    Checks a Packing to continue from (no overlap, fraction not above the target) and
+    that the largest sphere stays below half the box at the target.
+    """
+    edmd = _edmd_engine(dim)
+    n = radii.size
+    target = c.target
     mean_r = float(radii.mean())
     ball = unit_ball_volume(dim)
     vol_spheres = ball * float(np.sum(radii**dim))
     # internal units: mean radius 1 at t = 2/Γ, thermal speed 1
-    g = gamma * (radii / mean_r) / 2.0
-    t_unit = 2.0 / gamma  # time at which internal radii equal radii/mean_r
+    g = c.gamma * (radii / mean_r) / 2.0
+    t_unit = 2.0 / c.gamma  # time at which internal radii equal radii/mean_r
 
     if start is not None:
         box = np.array(start.box, dtype=np.float64) / mean_r
@@ -380,9 +429,6 @@ def pack(
     box_vol = float(np.prod(box))
     vol_unit = ball * float(np.sum((radii / mean_r) ** dim))  # sphere volume at t_unit
 
-    def phi_at(t):
-        return vol_unit * (t / t_unit) ** dim / box_vol
-
     # largest admissible time: the largest diameter must stay below half the box
     t_cap = 0.245 * float(box.min()) / float(g.max())
     if target is not None:
@@ -405,23 +451,46 @@ def pack(
     # distance travelled.  The dilute fluid relaxes within a few collision times, and
     # the slow compression from phi_fast on erases this history; it saves the long
     # free flights of the dilute start (most of the simulated time, few collisions).
-    phi_fast = min(phi_fast, 0.5 * target) if target is not None else phi_fast
+    phi_fast = min(c.phi_fast, 0.5 * target) if target is not None else c.phi_fast
     t_fast = t_unit * (phi_fast * box_vol / vol_unit) ** (1.0 / dim)
-    fast_phase = fast > 1.0 and t_fast > t0
+    fast_phase = c.fast > 1.0 and t_fast > t0
 
     state = np.zeros(edmd.N_STATE)
     state[edmd.S_TIME] = t0
-    hist_rows = []
-    status = "running"
-    # Chunks of a fixed collision count: each chunk starts with a full synchronisation
-    # (kinetic-energy reset), so sizing them from the measured rate would make the
-    # trajectory depend on the machine load.  Same seed, same pack, on any machine.
+    return _PackRun(edmd=edmd, n=n, dim=dim, radii=radii, mean_r=mean_r, vol_spheres=vol_spheres, t_unit=t_unit,
+                    t0=t0, box=box, x=x, v=v, g=g, perm=perm, box_vol=box_vol, vol_unit=vol_unit, t_stop=t_stop,
+                    t_ref=t_ref, phi_fast=phi_fast, t_fast=t_fast, fast_phase=fast_phase, state=state)
+
+
+def _chunk_size(opt, n):
+    """Collisions per compiled call.
+
+    Chunks of a fixed collision count: each chunk starts with a full synchronisation
+    (kinetic-energy reset), so sizing them from the measured rate would make the
+    trajectory depend on the machine load.  Same seed, same pack, on any machine.
+    """
     if opt["chunk_collisions"] is None:
         chunk = int(min(max(20 * n, 200_000), 10_000_000))
     else:
         chunk = int(opt["chunk_collisions"])
         if chunk < 1:
             raise InvalidInputError(f"chunk_collisions={opt['chunk_collisions']!r}: must be a positive integer")
+    return chunk
+
+
+def _run_chunks(s, c, opt, chunk, max_collisions, max_seconds, progress, wall0):
+    """Grow in chunks of ``chunk`` collisions until a stop; ``(status, code, hist_rows, run_time)``.
+
+    Advances ``s.x``, ``s.v`` and ``s.state`` in place.  Ctrl-C is deferred to the end
+    of the current chunk (status ``"interrupted"``); the budgets are checked between chunks.
+    """
+    edmd = s.edmd
+    state = s.state
+    target = c.target
+    fast = c.fast
+    fast_phase = s.fast_phase
+    hist_rows = []
+    status = "running"
     max_events = opt["max_events"]
     t_begin_chunks = time.perf_counter()
     bar = progress_bar(total=None, desc="pack", progress=progress, unit="coll")
@@ -448,24 +517,24 @@ def pack(
                         status = "event_budget"
                         break
                 params = edmd.make_params(
-                    t_stop=t_fast if fast_phase else t_stop, max_collisions=float(budget), max_pressure=p_max,
-                    pressure_window=float(window), t_ref=t_ref, alpha=skin, max_events=float(ev_budget),
-                    sync_every=float(opt["sync_every"] or 0), dilute=dilute_skin,
+                    t_stop=s.t_fast if fast_phase else s.t_stop, max_collisions=float(budget), max_pressure=c.p_max,
+                    pressure_window=float(c.window), t_ref=s.t_ref, alpha=c.skin, max_events=float(ev_budget),
+                    sync_every=float(opt["sync_every"] or 0), dilute=c.dilute_skin,
                     margin_cap=float(opt["margin_cap"]), speed=1.0 / fast if fast_phase else 1.0,
                 )
-                hist = np.zeros((budget // max(window, 1) + 2, 3))
+                hist = np.zeros((budget // max(c.window, 1) + 2, 3))
                 c0 = state[edmd.S_COLLISIONS]
                 tc = time.perf_counter()
-                code, nh = edmd.run_chunk(x, v, g, box, state, params, hist)
+                code, nh = edmd.run_chunk(s.x, s.v, s.g, s.box, state, params, hist)
                 dtc = time.perf_counter() - tc
                 if not fast_phase:  # no equation-of-state record of the fast start
                     for row in hist[:nh]:
-                        hist_rows.append((phi_at(row[0]), row[1]))
+                        hist_rows.append((s.phi_at(row[0]), row[1]))
                         last_p = row[1]
                 done = state[edmd.S_COLLISIONS] - c0
                 rate = done / dtc if dtc > 0 else 0.0
                 bar.update(int(done))
-                bar.set_postfix(phi=f"{phi_at(state[edmd.S_TIME]):.5f}", p=f"{last_p:.4g}", rate=f"{rate:.3g}/s")
+                bar.set_postfix(phi=f"{s.phi_at(state[edmd.S_TIME]):.5f}", p=f"{last_p:.4g}", rate=f"{rate:.3g}/s")
                 code = edmd.ChunkStatus(int(code))
                 if fast_phase and code == edmd.ChunkStatus.REACHED_T_STOP:  # end of the fast start
                     fast_phase = False
@@ -490,22 +559,34 @@ def pack(
         finally:
             bar.close()
     run_time = time.perf_counter() - t_begin_chunks
+    return status, code, hist_rows, run_time
 
-    t = float(state[edmd.S_TIME])
+
+def _to_user_units(s, c, status, code):
+    """Positions and box in user units (radii exactly as given), in the caller's sphere order.
+
+    Raises :class:`~polypack.errors.Interrupted` if nothing had grown, InfeasibleError
+    for a jammed run stopped by the box limit, OverlapError beyond round-off; a
+    round-off overlap is removed by a uniform shrink.  Returns ``(pos, box, gap, shrink)``.
+    """
+    n = s.n
+    t = float(s.state[s.edmd.S_TIME])
     if status == "interrupted" and not t > 0.0:
         raise Interrupted("pack interrupted before the spheres had grown; nothing to save", partial=None)
-    if status == "jammed" and code == edmd.ChunkStatus.BOX_LIMIT and target is None:
+    if status == "jammed" and code == s.edmd.ChunkStatus.BOX_LIMIT and c.target is None:
         raise InfeasibleError(
             f"{n} spheres cannot jam in a periodic box before the largest one reaches half the box; "
             "use more spheres"
         )
     # back to user units: radii exactly as given
-    scale = mean_r * t_unit / t  # internal length -> user length
+    radii = s.radii
+    perm = s.perm
+    scale = s.mean_r * s.t_unit / t  # internal length -> user length
     inv = np.empty_like(perm)
     inv[perm] = np.arange(n)
-    x = x[inv]
+    x = s.x[inv]
     pos = x * scale
-    box_out = box * scale
+    box_out = s.box * scale
     gap, pair = _min_gap(pos, radii, box_out)
     shrink = 1.0
     if gap < 0.0:
@@ -523,8 +604,18 @@ def pack(
                 pos, box_out, gap = pos2, box2, gap2
                 break
             shrink *= 1.0 - 1e-15 - abs(gap2)
+    return pos, box_out, gap, shrink
+
+
+def _record(s, c, start, ss, status, hist_rows, box_out, gap, shrink, wall0, run_time):
+    """``meta`` of the packed Packing: the run record, appended to the history of a continued Packing."""
+    edmd = s.edmd
+    state = s.state
+    dim = s.dim
+    target = c.target
+    fast = c.fast
     collisions = int(state[edmd.S_COLLISIONS])
-    phi_reached = vol_spheres / float(np.prod(box_out))
+    phi_reached = s.vol_spheres / float(np.prod(box_out))
     p_last = float(hist_rows[-1][1]) if hist_rows else float("nan")
     jam = phi_reached / (1.0 - dim / p_last) if (p_last > dim and math.isfinite(p_last)) else float("nan")
     meta = {}
@@ -547,25 +638,19 @@ def pack(
         "reduced_pressure": p_last,
         "pressure_history": _thin(hist_rows, 1000),
         "jamming_estimate": jam,
-        "growth_rate": gamma,
-        "fast_start": {"growth_factor": fast, "until_fraction": phi_fast} if (fast > 1.0 and t_fast > t0) else None,
+        "growth_rate": c.gamma,
+        "fast_start": ({"growth_factor": fast, "until_fraction": s.phi_fast}
+                       if (fast > 1.0 and s.t_fast > s.t0) else None),
         "seed": seed_record(ss),
         "min_gap": float(gap),
         "shrink_factor": shrink,
         "continued": start is not None,
-        "max_pressure": p_max,
+        "max_pressure": c.p_max,
     }
     history.append({k: val for k, val in run.items() if k != "pressure_history"})
     meta.update(run)
     meta["history"] = history
-    out = Packing(pos, radii, box_out, species=species, meta=meta)
-    if status == "interrupted":
-        raise Interrupted(
-            f"pack interrupted at volume fraction {phi_reached:.6g} after {collisions} collisions "
-            "(the partial pack is in .partial, status 'interrupted')",
-            partial=out,
-        )
-    return out
+    return meta
 
 
 def _spatial_order(x, box):
