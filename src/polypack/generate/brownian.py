@@ -112,6 +112,7 @@ from __future__ import annotations
 import math
 import time
 import warnings
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -953,52 +954,91 @@ def brownian(
                  sliding_stiffness=sliding_stiffness, rolling_stiffness=rolling_stiffness,
                  rolling_moment=rolling_moment, hydrodynamics=hydrodynamics, lubrication_range=lubrication_range,
                  bond_escape=bond_escape)
+    c = _check_brownian_args(n, given)
+    ss = as_seed_sequence(seed)
+    s_init, s_noise, s_escape = ss.spawn(3)  # the first two as spawn(2): runs without escape unchanged
+
+    t_wall = time.perf_counter()
+    # initial fluid: a stable suspension with every surface gap at least two Debye lengths
+    pos0 = _initial_positions(n, c.a, c.box_len, 2.0 * c.p.debye_length, s_init)
+    sim = BrownianSimulation(pos0, c.box_len, c.p, time_step=time_step, bond_width=bond_width, cutoff=cutoff,
+                             seed=s_noise, bonds=bonds, sliding_stiffness=sliding_stiffness,
+                             rolling_stiffness=rolling_stiffness, rolling_moment=rolling_moment,
+                             hydrodynamics=hydrodynamics, lubrication_range=lubrication_range)
+    escape = None
+    if bond_escape == "kramers":
+        escape = _Escape(sim, c.p, s_escape)
+    series, converged, residual = _run_until_stable(sim, escape, c, progress)
+    wall = time.perf_counter() - t_wall
+    if not converged:
+        warnings.warn(
+            f"brownian: structure not stable within the budget (t = {sim.time:.3g} s, {sim.steps} steps); "
+            "meta['brownian']['converged'] is False", RuntimeWarning, stacklevel=2)
+    wrapped, bx, meta = _gel_record(sim, escape, c, ss, series, converged, residual, wall, cutoff, bond_escape)
+    out = Packing(wrapped, np.full(n, c.a), bx, meta=meta)
+    gap = out.min_gap()
+    out.meta["min_gap"] = float(gap)
+    if gap < -OVERLAP_TOLERANCE:
+        raise OverlapError(
+            f"brownian gel has a relative overlap {-gap:.3g} > tolerance {OVERLAP_TOLERANCE:g}"
+        )
+    return out
+
+
+def _check_brownian_args(n, given):
+    """Check the options ``given`` to :func:`brownian` (its keywords by name); the checked values as a namespace.
+
+    ``n``, ``phi``, the DLVO parameters ``p``, the radius ``a``, the Brownian time ``tau``,
+    the box edge ``box_len`` and the stopping-rule settings with their defaults filled in.
+    """
     _registry.check_call(BrownianOptions, {k: x for k, x in given.items() if x is not None})
+    bonds = given["bonds"]
     if bonds not in BOND_MODELS:
         raise InvalidInputError(f"bonds={bonds!r}: must be one of {', '.join(map(repr, BOND_MODELS))}")
-    check_used(dict(bonds=bonds, hydrodynamics=hydrodynamics, sliding_stiffness=sliding_stiffness,
-                    rolling_stiffness=rolling_stiffness, rolling_moment=rolling_moment,
-                    lubrication_range=lubrication_range, bond_escape=bond_escape))
+    check_used({k: given[k] for k in ("bonds", "hydrodynamics", "sliding_stiffness", "rolling_stiffness",
+                                      "rolling_moment", "lubrication_range", "bond_escape")})
+    volume_fraction = given["volume_fraction"]
     phi = float(volume_fraction)
     if not (0.0 < phi <= 0.55):
         raise InvalidInputError(f"volume_fraction={volume_fraction!r}: must be in (0, 0.55]")
-    p = dlvo_parameters(surface_potential, radius=radius, temperature=temperature, viscosity=viscosity,
-                        relative_permittivity=relative_permittivity, hamaker=hamaker,
-                        ionic_strength=ionic_strength, debye_length=debye_length,
-                        minimum_separation=minimum_separation, model=model)
+    p = dlvo_parameters(given["surface_potential"], **{k: given[k] for k in (
+        "radius", "temperature", "viscosity", "relative_permittivity", "hamaker", "ionic_strength", "debye_length",
+        "minimum_separation", "model")})
     a = p.radius
     tau = p.brownian_time
     box_len = a * (4.0 * n * math.pi / (3.0 * phi)) ** (1.0 / 3.0)  # Eq. (5) of 003_873b69fc71c74cf6.txt
+    record_interval, stable_window = given["record_interval"], given["stable_window"]
+    min_time, max_time, max_steps = given["min_time"], given["max_time"], given["max_steps"]
     record_interval = 0.05 * tau if record_interval is None else _check_positive("record_interval", record_interval)
     stable_window = 2.0 * tau if stable_window is None else _check_positive("stable_window", stable_window)
     min_time = stable_window if min_time is None else _check_positive("min_time", min_time, allow_zero=True)
     max_time = 60.0 * tau if max_time is None else _check_positive("max_time", max_time)
     if max_steps is not None:
         max_steps = _check_int("max_steps", max_steps, 1)
-    coordination_tolerance = _check_positive("coordination_tolerance", coordination_tolerance)
-    cluster_tolerance = _check_positive("cluster_tolerance", cluster_tolerance)
-    ss = as_seed_sequence(seed)
-    s_init, s_noise, s_escape = ss.spawn(3)  # the first two as spawn(2): runs without escape unchanged
+    coordination_tolerance = _check_positive("coordination_tolerance", given["coordination_tolerance"])
+    cluster_tolerance = _check_positive("cluster_tolerance", given["cluster_tolerance"])
+    return SimpleNamespace(n=n, phi=phi, p=p, a=a, tau=tau, box_len=box_len, record_interval=record_interval,
+                           stable_window=stable_window, min_time=min_time, max_time=max_time, max_steps=max_steps,
+                           coordination_tolerance=coordination_tolerance, cluster_tolerance=cluster_tolerance)
 
-    t_wall = time.perf_counter()
-    # initial fluid: a stable suspension with every surface gap at least two Debye lengths
-    pos0 = _initial_positions(n, a, box_len, 2.0 * p.debye_length, s_init)
-    sim = BrownianSimulation(pos0, box_len, p, time_step=time_step, bond_width=bond_width, cutoff=cutoff,
-                             seed=s_noise, bonds=bonds, sliding_stiffness=sliding_stiffness,
-                             rolling_stiffness=rolling_stiffness, rolling_moment=rolling_moment,
-                             hydrodynamics=hydrodynamics, lubrication_range=lubrication_range)
+
+def _run_until_stable(sim, escape, c, progress):
+    """Run ``sim`` record by record until the structure is stable or a budget is spent.
+
+    Returns ``(series, converged, residual)``: the time series, whether the stopping
+    rule fired, and the overlap residual after the final constraint relaxation.
+    Ctrl-C raises :class:`polypack.errors.Interrupted` at the next safe point.
+    """
+    n, tau, max_steps = c.n, c.tau, c.max_steps
     dt = sim.time_step
-    steps_per_record = max(1, int(round(record_interval / dt)))
-    escape = None
-    if bond_escape == "kramers":
-        escape = _Escape(sim, p, s_escape)
-    window_records = max(1, int(round(stable_window / (steps_per_record * dt))))
+    steps_per_record = max(1, int(round(c.record_interval / dt)))
+    window_records = max(1, int(round(c.stable_window / (steps_per_record * dt))))
     series = {"time": [0.0], "coordination": [0.0], "clusters": [n], "largest_cluster": [1],
               "largest_fraction": [1.0 / n]}
     converged = False
     from .. import _interrupt
 
-    bar = progress_bar(total=None, desc=f"brownian Ψ0={1e3 * p.surface_potential:g} mV", progress=progress,
+    bar = progress_bar(total=None, desc=f"brownian Ψ0={1e3 * c.p.surface_potential:g} mV", progress=progress,
                        unit="record")
     # Ctrl-C is deferred to the safe points between kernel chunks, where it raises
     # polypack.errors.Interrupted (a KeyboardInterrupt); an interrupted gel is never returned.
@@ -1006,7 +1046,7 @@ def brownian(
         try:
             while True:
                 _interrupt.check(f"brownian interrupted at t = {sim.time:.3g} s after {sim.steps} steps")
-                if sim.time >= max_time * (1 - 1e-12) or (max_steps is not None and sim.steps >= max_steps):
+                if sim.time >= c.max_time * (1 - 1e-12) or (max_steps is not None and sim.steps >= max_steps):
                     break
                 k = steps_per_record if max_steps is None else min(steps_per_record, max_steps - sim.steps)
                 if escape is None:
@@ -1024,22 +1064,24 @@ def brownian(
                 bar.set_postfix_str(f"t={sim.time * 1e3:.2f} ms ({sim.time / tau:.2f} a²/D0), "
                                     f"clusters={sizes.size}, largest={largest}, C={sim.coordination:.3f}")
                 m = len(series["time"]) - 1
-                if sim.time >= min_time and m >= window_records:
+                if sim.time >= c.min_time and m >= window_records:
                     c_now, c_then = series["coordination"][m], series["coordination"][m - window_records]
                     f_now, f_then = series["largest_fraction"][m], series["largest_fraction"][m - window_records]
-                    if (c_now > 0 and abs(c_now - c_then) <= coordination_tolerance * c_now
-                            and abs(f_now - f_then) <= cluster_tolerance):
+                    if (c_now > 0 and abs(c_now - c_then) <= c.coordination_tolerance * c_now
+                            and abs(f_now - f_then) <= c.cluster_tolerance):
                         converged = True
                         break
             _interrupt.check(f"brownian interrupted at t = {sim.time:.3g} s after {sim.steps} steps")
             residual = sim.relax_constraints()
         finally:
             bar.close()
-    wall = time.perf_counter() - t_wall
-    if not converged:
-        warnings.warn(
-            f"brownian: structure not stable within the budget (t = {sim.time:.3g} s, {sim.steps} steps); "
-            "meta['brownian']['converged'] is False", RuntimeWarning, stacklevel=2)
+    return series, converged, residual
+
+
+def _gel_record(sim, escape, c, ss, series, converged, residual, wall, cutoff, bond_escape):
+    """Folded positions, box and ``meta`` (the run record and the bond arrays) of the finished gel."""
+    p, a, tau = c.p, c.a, c.tau
+    dt = sim.time_step
     gaps = sim.bond_gaps()
     pos = sim.positions
     bx = sim.box
@@ -1055,7 +1097,7 @@ def brownian(
         "seed": seed_record(ss),
         "brownian": {
             "parameters": p.to_dict(),
-            "volume_fraction": phi,
+            "volume_fraction": c.phi,
             "time_step": dt,
             "rms_step": sim.rms_step,
             "rms_step_debye": sim.rms_step / p.debye_length,
@@ -1084,18 +1126,11 @@ def brownian(
             "clusters": int(sizes.size),
             "largest_cluster": int(sizes.max()),
             "percolating": [bool(x) for x in perc],
-            "stable_window": stable_window,
-            "coordination_tolerance": coordination_tolerance,
-            "cluster_tolerance": cluster_tolerance,
+            "stable_window": c.stable_window,
+            "coordination_tolerance": c.coordination_tolerance,
+            "cluster_tolerance": c.cluster_tolerance,
             "series": series,
         },
         "bonds": {"i": bi.tolist(), "j": bj.tolist(), "shift": shift.tolist()},
     }
-    out = Packing(wrapped, np.full(n, a), bx, meta=meta)
-    gap = out.min_gap()
-    out.meta["min_gap"] = float(gap)
-    if gap < -OVERLAP_TOLERANCE:
-        raise OverlapError(
-            f"brownian gel has a relative overlap {-gap:.3g} > tolerance {OVERLAP_TOLERANCE:g}"
-        )
-    return out
+    return wrapped, bx, meta
