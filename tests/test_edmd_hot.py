@@ -49,3 +49,56 @@ def test_pair_time_below_is_pair_time_where_it_is_below_best():
         shortcut += (got[:, 1] == np.inf).sum() - (got[:, 0] == np.inf).sum()
     assert shortcut > 500  # the shortcut is taken (with the random best)
 
+
+
+def test_curve_order_is_a_local_permutation():
+    """The renumbering of the event loop (edmd._curve_order) is a permutation with its inverse,
+    and spheres next to each other in it are close in space (Morton order of ~1-sphere cells):
+    the mean distance between consecutive spheres is a few cell sides, not a fraction of the box."""
+    rng = np.random.default_rng(5)
+    n = 4000
+    box = np.array([20.0, 20.0, 10.0])
+    x = rng.random((n, 3)) * box
+    orig = np.empty(n, np.int64)
+    new = np.empty(n, np.int64)
+    edmd._curve_order(x, box, orig, new)
+    assert np.array_equal(np.sort(orig), np.arange(n))
+    assert np.array_equal(new[orig], np.arange(n))
+    d = x[orig[1:]] - x[orig[:-1]]
+    d -= box * np.round(d / box)
+    step = np.sqrt((d ** 2).sum(axis=1)).mean()
+    cell = (box.prod() / n) ** (1 / 3)  # 1.36
+    assert step < 2.5 * cell  # random order: about 0.66 * 20 = 13; Morton measured 1.9 cells
+    assert not np.array_equal(orig, np.arange(n))
+
+
+_MAKE_PARAMS = edmd.make_params
+
+
+def _pack_with(monkeypatch, renumber, **kw):
+    import polypack as pp
+
+    monkeypatch.setattr(edmd, "make_params", lambda *a, **k: _MAKE_PARAMS(*a, **k, renumber=renumber))
+    return pp.pack(**kw)
+
+
+def test_renumbering_is_undone_bit_for_bit(monkeypatch):
+    """The event loop runs on spheres renumbered along a space-filling curve (issue 33: memory
+    locality); the caller gets its own numbering back and the very same pack as without the
+    renumbering: positions, radii, pressure history and every count bit for bit (a bidisperse mix
+    of size ratio 2.5,
+    chunks of 3000 collisions and a synchronisation every 700, so that renumbering, rebuilds and
+    synchronisations alternate many times; the default path is the golden record's)."""
+    from polypack.generate import PackTuning
+
+    radii = np.where(np.arange(400) % 10 == 0, 2.5, 1.0)  # two size levels of the shell grid
+    kw = dict(sizes=radii, volume_fraction=0.6, seed=11, growth_rate=0.05, progress=False,
+              tuning=PackTuning(chunk_collisions=3000, sync_every=700))
+    a = _pack_with(monkeypatch, False, **kw)
+    b = _pack_with(monkeypatch, True, **kw)
+    assert a.meta["collisions"] > 15000 and a.meta["rebuilds"] > 6
+    for key in ("collisions", "events", "rebuilds", "shell_rebuilds"):
+        assert a.meta[key] == b.meta[key], key
+    assert np.array_equal(a.positions, b.positions)
+    assert np.array_equal(a.radii, b.radii)
+    assert np.array_equal(np.array(a.meta["pressure_history"]), np.array(b.meta["pressure_history"]))

@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """Independent mutation check of the round-3 modules (issue 37's rule for resolving a round-3 issue).
 
-Before a round-3 issue (30, 31, 32, 34, 35, 36) is called resolved, issue 37 asks for an
+Before a round-3 issue (30, 31, 32, 33, 34, 35, 36) is called resolved, issue 37 asks for an
 independent mutation check of the modules it touched: plausible one-line bugs written
 from a reading of those modules only, *without* looking at the harness's list
 (``tools/mutate.py``) or at ``tools/mutants_independent.py``'s list, each aimed at the
@@ -63,8 +63,26 @@ T_FIG5 = ("tests/test_sweep.py::test_fig5_picks_the_brownian_set_when_there_is_o
           "tests/test_sweep.py::test_fig5_uses_the_studys_elastic_settings")
 T_BDK = ("tests/test_bd_kernel.py",)
 T_ESC = ("tests/test_brownian_escape.py",)
+T_EDMD = ("tests/test_edmd_hot.py", "tests/test_golden.py")
 
 ROUND3 = [
+    # ============================================================== issue 33: packer speed (edmd.py renumbering)
+    Mutant("r3-33-unpermute-positions", K + "edmd.py",
+           "            x[o, k] = P[i, R_X + k]\n",
+           "            x[i, k] = P[i, R_X + k]\n",
+           T_EDMD, "wrong un-permutation (positions returned in the event loop's numbering)"),
+    Mutant("r3-33-records-growth", K + "edmd.py",
+           "        P[i, R_G] = g[o]\n",
+           "        P[i, R_G] = g[i]\n",
+           T_EDMD, "wrong permutation (growth speeds left in the caller's numbering)"),
+    Mutant("r3-33-lists-unmapped", K + "edmd.py",
+           "        pj[k] = new[pj[k]]\n",
+           "        pj[k] = pj[k]\n",
+           T_EDMD, "missing step (one side of every pair left in the caller's numbering)"),
+    Mutant("r3-33-levels-unmapped", K + "edmd.py",
+           "                    lev[i] = level[orig[i]]\n",
+           "                    lev[i] = level[i]\n",
+           T_EDMD, "wrong permutation (size levels in the caller's numbering: wrong grid of a shell)"),
     # ============================================================== issue 32: Brownian-dynamics speed (bd.py)
     Mutant("r3-32-near-restart", K + "bd.py",
            "                    q = k + 1\n",
@@ -495,7 +513,7 @@ ROUND3 = [
            T_ESC, "wrong geometry (each sphere moved by the whole gap change)"),
 ]
 
-ISSUES = ("30", "31", "32", "34", "35", "36")
+ISSUES = ("30", "31", "32", "33", "34", "35", "36")
 
 
 def issue_of(m) -> str:

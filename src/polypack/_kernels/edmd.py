@@ -67,16 +67,20 @@ EVENT_BUDGET = int(ChunkStatus.EVENT_BUDGET)
 
 # slots of the ``params`` array of run_chunk
 (P_T_STOP, P_MAX_COLLISIONS, P_MAX_PRESSURE, P_PRESSURE_WINDOW, P_T_REF, P_ALPHA, P_MAX_EVENTS, P_SYNC_EVERY,
- P_DILUTE, P_MARGIN_CAP, P_SPEED) = range(11)
-N_PARAMS = 11
+ P_DILUTE, P_MARGIN_CAP, P_SPEED, P_RENUMBER) = range(12)
+N_PARAMS = 12
 # slots of the ``state`` array of run_chunk (counts accumulate across chunks)
 (S_TIME, S_COLLISIONS, S_EVENTS, S_REBUILDS, S_VIRIAL, S_KE_INTEGRAL, S_LOCAL_REBUILDS, S_STATUS) = range(8)
 N_STATE = 8
 
 
 def make_params(t_stop, max_collisions, max_pressure, pressure_window, t_ref, alpha, max_events, sync_every,
-                dilute, margin_cap, speed=1.0):
-    """The ``params`` array of :func:`run_chunk` from named values (slots ``P_*``)."""
+                dilute, margin_cap, speed=1.0, renumber=True):
+    """The ``params`` array of :func:`run_chunk` from named values (slots ``P_*``).
+
+    ``renumber`` (slot ``P_RENUMBER``, 3D only): number the spheres of the event loop along a
+    space-filling curve (:func:`_curve_order`); the pack is the same bit for bit either way.
+    """
     p = np.empty(N_PARAMS)
     p[P_T_STOP] = t_stop
     p[P_MAX_COLLISIONS] = max_collisions
@@ -89,6 +93,7 @@ def make_params(t_stop, max_collisions, max_pressure, pressure_window, t_ref, al
     p[P_DILUTE] = dilute
     p[P_MARGIN_CAP] = margin_cap
     p[P_SPEED] = speed
+    p[P_RENUMBER] = 1.0 if renumber else 0.0
     return p
 
 
@@ -253,6 +258,23 @@ def _heap_build(hk, hi, hpos, key, n):
 
 
 @njit(cache=True)
+def _heap_build_order(hk, hi, hpos, key, new, n):
+    """:func:`_heap_build` with slot ``k`` first holding sphere ``new[k]``.
+
+    With ``new`` the renumbering of :func:`_curve_order` the heap is, slot for slot, the one
+    :func:`_heap_build` makes in the caller's numbering, so events with equal times leave the
+    heap in the same order (bit for bit the same pack).
+    """
+    for k in range(n):
+        i = new[k]
+        hk[k] = key[i]
+        hi[k] = i
+        hpos[i] = k
+    for k in range((n - 2) // 4, -1, -1):
+        _sift_down(hk, hi, hpos, k, n)
+
+
+@njit(cache=True)
 def _choose_ncell(box, n, reach_small):
     vol = box[0] * box[1] * box[2]
     h = max(reach_small, (vol / max(2 * n, 1)) ** (1.0 / 3.0), 1e-300)
@@ -266,17 +288,23 @@ def _choose_ncell(box, n, reach_small):
 
 
 @njit(cache=True)
-def build_lists(x, rho, box, level, nlev, pad):
+def build_lists(x, rho, box, level, nlev, pad, new):
     """Neighbour lists of shell-overlap pairs ``d_ij <= rho_i + rho_j``, both directions.
 
     Stored as slabs: sphere ``i`` owns ``nbr[off[i] : off[i+1]]`` of which the first
     ``nn[i]`` are used; the capacity ``2 max(count_i, mean count of its size level)
-    + pad`` leaves room for the list to grow in local rebuilds.
+    + pad`` leaves room for the list to grow in local rebuilds.  ``x`` and ``rho`` are in
+    the caller's numbering; the lists are in the event loop's (sphere ``k`` is ``new[k]``,
+    ``level`` indexed by it), the slabs in that order and each list in the order of the
+    caller's numbering would give (:func:`_curve_order`).
     """
     n = x.shape[0]
     reach_small = 2.0 * rho[stable_argsort(rho)[n // 2]]
     nc = _choose_ncell(box, n, reach_small)
     pi, pj, _ = pairs_within(x, rho, box, 1.0, 0.0, nc)
+    for k in range(pi.shape[0]):
+        pi[k] = new[pi[k]]
+        pj[k] = new[pj[k]]
     return _slab_lists(pi, pj, n, level, nlev, pad)
 
 
@@ -328,24 +356,79 @@ def _records(n):
 
 
 @njit(cache=True)
-def _to_records(P, x, v, tl, g):
-    """Copy the state of every sphere into its record."""
+def _to_records(P, x, v, tl, g, orig):
+    """Copy the state of every sphere into its record: record ``i`` is the caller's sphere ``orig[i]``."""
     for i in range(x.shape[0]):
+        o = orig[i]
         for k in range(3):
-            P[i, R_X + k] = x[i, k]
-            P[i, R_V + k] = v[i, k]
-        P[i, R_T] = tl[i]
-        P[i, R_G] = g[i]
+            P[i, R_X + k] = x[o, k]
+            P[i, R_V + k] = v[o, k]
+        P[i, R_T] = tl[o]
+        P[i, R_G] = g[o]
 
 
 @njit(cache=True)
-def _from_records(P, x, v, tl):
-    """Copy positions, velocities and own times back out of the records."""
+def _from_records(P, x, v, tl, orig):
+    """Copy positions, velocities and own times back out of the records (the caller's numbering)."""
     for i in range(x.shape[0]):
+        o = orig[i]
         for k in range(3):
-            x[i, k] = P[i, R_X + k]
-            v[i, k] = P[i, R_V + k]
-        tl[i] = P[i, R_T]
+            x[o, k] = P[i, R_X + k]
+            v[o, k] = P[i, R_V + k]
+        tl[o] = P[i, R_T]
+
+
+@njit(cache=True)
+def _curve_order(x, box, orig, new):
+    """Number the spheres along a Morton (Z-order) curve of a cell grid (issue 33: memory locality).
+
+    The grid has about one sphere per cell; the cells are ordered by interleaving the bits
+    of their three indices (as many bits per axis as that axis needs), the spheres of a cell
+    keep the caller's order (stable sort).  Fills ``orig`` (the caller's index of the event
+    loop's sphere ``i``) and ``new`` (its inverse).  Neighbours in space are then mostly
+    neighbours in memory: their records and neighbour-list slabs share cache lines and pages.
+
+    Only memory addresses change: the event loop sees the same events in the same order
+    (lists, cell chains and heap are built in the caller's order, see :func:`build_lists`,
+    :func:`_grid_build`, :func:`_heap_build_order`), and the sums over spheres of a
+    synchronisation run in the caller's numbering, so the pack is bit for bit the same.
+    """
+    n = x.shape[0]
+    h = (box[0] * box[1] * box[2] / max(n, 1)) ** (1.0 / 3.0)
+    ncl = np.empty(3, np.int64)
+    bits = np.empty(3, np.int64)
+    top = 0
+    for k in range(3):
+        m = 1 if h <= 0.0 else max(1, min(int(box[k] / h), 1 << 17))
+        ncl[k] = m
+        b = 0
+        while (1 << b) < m:
+            b += 1
+        bits[k] = b
+        if b > top:
+            top = b
+    keys = np.empty(n)
+    for i in range(n):
+        code = 0
+        shift = 0
+        c0 = _axis_cell(x[i, 0], box[0], ncl[0])
+        c1 = _axis_cell(x[i, 1], box[1], ncl[1])
+        c2 = _axis_cell(x[i, 2], box[2], ncl[2])
+        for b in range(top):
+            if b < bits[0]:
+                code |= ((c0 >> b) & 1) << shift
+                shift += 1
+            if b < bits[1]:
+                code |= ((c1 >> b) & 1) << shift
+                shift += 1
+            if b < bits[2]:
+                code |= ((c2 >> b) & 1) << shift
+                shift += 1
+        keys[i] = code  # below 2^51: exact as a float (the sort already compiled for floats)
+    o = stable_argsort(keys)
+    for i in range(n):
+        orig[i] = o[i]
+        new[o[i]] = i
 
 
 @njit(cache=True, _nrt=False)  # no reference counting (see _event_loop)
@@ -414,8 +497,13 @@ def _cell_index(p0, p1, p2, box, nc, lv):
 
 
 @njit(cache=True)
-def _grid_build(xb, level, box, rho_max_lv, nlev, n):
-    """One cell grid of shell centres per size level (multi-level grid, O(N) for any size ratio)."""
+def _grid_build(xb, level, box, rho_max_lv, nlev, n, new):
+    """One cell grid of shell centres per size level (multi-level grid, O(N) for any size ratio).
+
+    The spheres enter their cells' chains in the order ``new[0], new[1], ...`` (the caller's
+    numbering, :func:`_curve_order`), so each chain lists the same spheres in the same order
+    whatever the numbering of the event loop.
+    """
     vol = box[0] * box[1] * box[2]
     counts = np.zeros(nlev, np.int64)
     for i in range(n):
@@ -445,7 +533,8 @@ def _grid_build(xb, level, box, rho_max_lv, nlev, n):
     for i in range(n):
         nxt[i] = -1
         prv[i] = -1
-    for i in range(n):
+    for k in range(n):
+        i = new[k]
         lv = level[i]
         ci = coff[lv] + _cell_index(xb[i, 0], xb[i, 1], xb[i, 2], box, nc, lv)
         cell[i] = ci
@@ -960,6 +1049,7 @@ def run_chunk(x, v, g, box, state, params, hist):
     max_events = int(params[P_MAX_EVENTS])
     sync_every = int(params[P_SYNC_EVERY])
     speed = params[P_SPEED] if params.shape[0] > P_SPEED else 1.0
+    renumber = params[P_RENUMBER] != 0.0 if params.shape[0] > P_RENUMBER else True
     if sync_every <= 0:
         sync_every = 4 * n
 
@@ -997,10 +1087,19 @@ def run_chunk(x, v, g, box, state, params, hist):
     pad = np.int64(8)  # an int64, not the literal 8: build_lists compiles once
     rho_cap = 0.249 * min(box[0], min(box[1], box[2]))
     rho_max_lv = np.zeros(nlev)
-    nc, coff, head, nxt, prv, cell = _grid_build(x, level, box, gmax_lv, nlev, n)
     fs = np.empty(5)
     ks = np.empty(7, np.int64)
     P = _records(n)
+    # the event loop numbers the spheres along a space-filling curve (renewed at each global
+    # rebuild, where every list, shell and event is made anew): its sphere i is the caller's
+    # orig[i], the caller's k is its new[k]; x, v, tl and g stay in the caller's numbering
+    orig = np.empty(n, np.int64)
+    new = np.empty(n, np.int64)
+    for i in range(n):
+        orig[i] = i
+        new[i] = i
+    lev = level.copy()  # size levels in the event loop's numbering
+    nc, coff, head, nxt, prv, cell = _grid_build(x, level, box, gmax_lv, nlev, n, new)
 
     while True:
         if need_rebuild or need_sync:
@@ -1016,24 +1115,32 @@ def run_chunk(x, v, g, box, state, params, hist):
                 if gmax * t >= rho_cap * (1.0 - 1e-9):
                     status = BOX_LIMIT
                     break
+                if renumber:
+                    _curve_order(x, box, orig, new)
+                for i in range(n):
+                    lev[i] = level[orig[i]]
                 D = shell_reach(t, t_ref, alpha, dilute)
                 for lv in range(nlev):
                     rho_max_lv[lv] = 0.0
-                for i in range(n):
-                    for k in range(3):
-                        xb[i, k] = x[i, k]
-                    rho[i] = _shell_radius(g[i], t, D, g_margin, rho_cap)
-                    if rho[i] > rho_max_lv[level[i]]:
-                        rho_max_lv[level[i]] = rho[i]
-                off, nn, nbr = build_lists(x, rho, box, level, nlev, pad)
-                nc, coff, head, nxt, prv, cell = _grid_build(xb, level, box, rho_max_lv, nlev, n)
+                rho_o = ev_t  # scratch (the predictions below overwrite it): shell radii, caller's numbering
+                for k in range(n):
+                    r = _shell_radius(g[k], t, D, g_margin, rho_cap)
+                    rho_o[k] = r
+                    i = new[k]
+                    for c in range(3):
+                        xb[i, c] = x[k, c]
+                    rho[i] = r
+                    if r > rho_max_lv[level[k]]:
+                        rho_max_lv[level[k]] = r
+                off, nn, nbr = build_lists(x, rho_o, box, lev, nlev, pad, new)
+                nc, coff, head, nxt, prv, cell = _grid_build(xb, lev, box, rho_max_lv, nlev, n, new)
                 state[S_REBUILDS] += 1
-            _to_records(P, x, v, tl, g)
+            _to_records(P, x, v, tl, g, orig)
             for i in range(n):
                 cnt[i] = 0
             for i in range(n):
                 _predict(i, t, P, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
-            _heap_build(hk, hi, hpos, ev_t, n)
+            _heap_build_order(hk, hi, hpos, ev_t, new, n)
             need_rebuild = False
             need_sync = False
 
@@ -1050,9 +1157,9 @@ def run_chunk(x, v, g, box, state, params, hist):
         ks[5] = n_hist
         ks[6] = status
         out = _event_loop(P, box, state, hist, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c, hk, hi, hpos,
-                          level, nlev, rho_max_lv, nc, coff, head, nxt, prv, cell, fs, ks, t_stop, max_coll, p_max,
+                          lev, nlev, rho_max_lv, nc, coff, head, nxt, prv, cell, fs, ks, t_stop, max_coll, p_max,
                           window, t_ref, alpha, dilute, max_events, sync_every, g_margin, rho_cap)
-        _from_records(P, x, v, tl)
+        _from_records(P, x, v, tl, orig)
         t = fs[0]
         w_vir = fs[1]
         w_ke = fs[2]

@@ -29,13 +29,13 @@ import math
 import numpy as np
 from numba import njit
 
-from .cells import min_image, pairs_within
+from .cells import min_image, pairs_within, stable_argsort
 from .edmd import (BOX_LIMIT, CHUNK_DONE, EVENT_BUDGET, INF, JAMMED, N_PARAMS, N_STATE, P_ALPHA,  # noqa: F401
                    P_DILUTE, P_MARGIN_CAP, P_MAX_COLLISIONS, P_MAX_EVENTS, P_MAX_PRESSURE, P_PRESSURE_WINDOW,
                    P_SPEED, P_SYNC_EVERY, P_T_REF, P_T_STOP, REACHED_T_STOP, S_COLLISIONS, S_EVENTS,
                    S_KE_INTEGRAL, S_LOCAL_REBUILDS, S_REBUILDS, S_STATUS, S_TIME, S_VIRIAL, ChunkStatus,
-                   _axis_cell, _close_window, _end_chunk, _grid_move, _heap_build, _heap_update, _levels,
-                   _list_pair, _shell_radius, _slab_lists, _sync_all, _thermalise, _unlist, _wrap, exit_time,
+                   _axis_cell, _close_window, _end_chunk, _grid_move, _heap_build, _heap_update, _largest, _levels,
+                   _list_pair, _median, _shell_radius, _slab_lists, _sync_all, _thermalise, _unlist, _wrap, exit_time,
                    kinetic_energy, make_params, pair_time, shell_reach)
 
 __all__ = ["ChunkStatus", "make_params", "run_chunk", "next_event_brute", "N_STATE", "N_PARAMS"]
@@ -72,8 +72,7 @@ def build_lists(x, rho, box, level, nlev, pad):
     box3[0] = box[0]
     box3[1] = box[1]
     box3[2] = max(box[0], box[1])
-    rs = np.sort(rho)
-    reach_small = 2.0 * rs[n // 2]
+    reach_small = 2.0 * rho[stable_argsort(rho)[n // 2]]  # not np.sort: seconds of compilation (issue 33)
     nc = _choose_ncell(box, n, reach_small)
     pi, pj, _ = pairs_within(x3, rho, box3, 1.0, 0.0, nc)
     return _slab_lists(pi, pj, n, level, nlev, pad)
@@ -141,9 +140,14 @@ def _grid_build(xb, level, box, rho_max_lv, nlev, n):
             for k in range(2):
                 nc[lv, k] = max(1, nc[lv, k] // 2)
         coff[lv + 1] = coff[lv] + nc[lv, 0] * nc[lv, 1]
-    head = np.full(coff[nlev], -1, np.int64)
-    nxt = np.full(n, -1, np.int64)
-    prv = np.full(n, -1, np.int64)
+    head = np.empty(coff[nlev], np.int64)
+    for c in range(coff[nlev]):
+        head[c] = -1
+    nxt = np.empty(n, np.int64)
+    prv = np.empty(n, np.int64)
+    for i in range(n):
+        nxt[i] = -1
+        prv[i] = -1
     cell = np.empty(n, np.int64)
     for i in range(n):
         lv = level[i]
@@ -239,7 +243,9 @@ def run_chunk(x, v, g, box, state, params, hist):
     if sync_every <= 0:
         sync_every = 4 * n
 
-    tl = np.full(n, t)
+    tl = np.empty(n)
+    for i in range(n):
+        tl[i] = t
     cnt = np.zeros(n, np.int64)
     ev_t = np.empty(n)
     ev_p = np.empty(n, np.int64)
@@ -250,8 +256,8 @@ def run_chunk(x, v, g, box, state, params, hist):
     xb = np.empty((n, 2))
     rho = np.empty(n)
     level, nlev, gmax_lv = _levels(g)
-    gmax = g.max()
-    g_margin = params[P_MARGIN_CAP] * np.median(g)
+    gmax = _largest(g)  # written-out g.max() and np.median(g), bit for bit (issue 33: cold start)
+    g_margin = params[P_MARGIN_CAP] * _median(g)
 
     n_hist = 0
     status = CHUNK_DONE
