@@ -80,17 +80,27 @@ def register(app: typer.Typer) -> None:
 
 def _run_sweep(study, out, workers, scheduler, dask, check, force, wait, progress, report=True):
     from ..errors import InvalidInputError
-    from ..ensemble.sweep import run_sweep, sweep_studies
+    from ..ensemble.sweep import run_sweep, sweep_plan
 
-    sw, studies, name = sweep_studies(study)
+    sw, plan, name = sweep_plan(study)
     if check:
         from ..ensemble.stages import check_available, child_seed_records, preflight
 
-        for _, st in studies:
-            check_available(st.data)
-            preflight(st.data, child_seed_records(st.seed, 1)[0])
-        typer.echo(f"# {study}: valid sweep over {len(studies)} values of {sw['parameter']}: "
-                   f"{', '.join(repr(v) for v, _ in studies)}")
+        for e in plan:
+            try:
+                check_available(e.study.data)
+                preflight(e.study.data, child_seed_records(e.study.seed, 1)[0])
+            except InvalidInputError as exc:
+                where = "sweep" if e.set is None else f'sweep.set "{e.set}"'
+                raise InvalidInputError(f"{where} value {e.value!r}: {exc}") from None
+        if sw["sets"] is None:
+            typer.echo(f"# {study}: valid sweep over {len(plan)} values of {sw['parameter']}: "
+                       f"{', '.join(repr(e.value) for e in plan)}")
+        else:
+            typer.echo(f"# {study}: valid sweep of {len(sw['sets'])} sets, {len(plan)} values in all")
+            for s in sw["sets"]:
+                dyn = f"; dynamic G'p at {', '.join(repr(v) for v in s['dynamic'])}" if s["dynamic"] else ""
+                typer.echo(f"#   {s['name']}: {s['parameter']} = {', '.join(repr(v) for v in s['values'])}{dyn}")
         return
     if scheduler and dask:
         raise InvalidInputError("--scheduler and --dask: give one (--scheduler uses an existing cluster)")
@@ -106,17 +116,16 @@ def _run_sweep(study, out, workers, scheduler, dask, check, force, wait, progres
         typer.echo("interrupted: finished realizations are saved; rerun the same command to resume", err=True)
         raise SystemExit(130) from None
     if report:  # each value's run report, then OUT/report.html linking them (with the heterogeneity outputs)
-        from ..ensemble.sweep import _label
         from ..report import report as write_report
         from ..report.build import sweep_report
 
         out_dir = Path(out) if out is not None else Path("out") / name
         entries = []
-        for v, st in studies:
-            sub = out_dir / _label(sw["parameter"], v)
-            plots = bool(st.data["output"]["plots"])
+        for e in plan:
+            sub = out_dir / e.rel
+            plots = bool(e.study.data["output"]["plots"])
             write_report(sub, sub / "report.html", plots_dir=(sub / "figures") if plots else None,
-                         formats=(st.data["output"]["plot_format"],) if plots else ())
-            entries.append((v, sub))
+                         formats=(e.study.data["output"]["plot_format"],) if plots else ())
+            entries.append((e.value if e.set is None else e.text, sub))
         path = sweep_report(out_dir, entries, title=name)
         typer.echo(f"  {'report':<20s} {path}")

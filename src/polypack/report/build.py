@@ -617,7 +617,7 @@ def report(source, out=None, *, color=None, theory=False, compare=(), plots_dir=
 def _table2_side_by_side(rows):
     """``(header, rows)`` of Table 2 of 003_873b69fc71c74cf6.txt beside the heterogeneity report's rows
     (``fit.json``'s ``rows``): each set with the seed's row of its kind and value, and ``a / a_seed``."""
-    from ..studies.seed003_heterogeneity import _seed_row
+    from ..studies.seed003_heterogeneity import _g_dyn_cell, _seed_row
 
     def pm(x, e, digits):
         x = float("nan") if x is None else float(x)
@@ -625,7 +625,8 @@ def _table2_side_by_side(rows):
             return f"{x:.{digits}f}"
         return f"{x:.{digits}f} ± {float(e):.{digits}f}"
 
-    header = ("set", "P", "a", "a (seed)", "a / a seed", "C", "C (seed)", "G′p MPa", "G′p MPa (seed)", "floppy")
+    header = ("set", "P", "a", "a (seed)", "a / a seed", "C", "C (seed)", "G′p MPa", "G′p MPa (seed)",
+              "G′p MPa dynamic (oscillatory shear)", "floppy")
     out = []
     for r in rows:
         key = r.get("parameter")
@@ -634,7 +635,9 @@ def _table2_side_by_side(rows):
         out.append((r.get("set"), r.get("realizations"), pm(r.get("a"), r.get("a_se"), 3),
                     f"{s[1]:.3f}" if s else "–", f"{r['a'] / s[1]:.3f}" if s and r.get("a") is not None else "–",
                     pm(r.get("C"), r.get("C_se"), 2), f"{s[2]:.2f}" if s else "–", g,
-                    f"{s[3]:.2f} ± {s[4]:.2f}" if s else "–", f"{r.get('floppy', 0)} of {r.get('realizations')}"))
+                    f"{s[3]:.2f} ± {s[4]:.2f}" if s else "–",
+                    _g_dyn_cell(r),
+                    f"{r.get('floppy', 0)} of {r.get('realizations')}"))
     return header, out
 
 
@@ -646,7 +649,8 @@ def sweep_report(out, entries, *, title=None):
     out : path
         The sweep's output folder.
     entries : sequence of ``(value, folder)``
-        The swept values and their run folders (each an ordinary ``polypack run``
+        The swept values (or, for a sweep of several ``[[sweep.set]]`` tables, the text
+        ``"set: key=value"``) and their run folders (each an ordinary ``polypack run``
         folder, with its own ``report.html`` when written).
     title : str, optional
         Page title (default: the folder name).
@@ -683,7 +687,7 @@ def sweep_report(out, entries, *, title=None):
         rel = folder.relative_to(out) if folder.is_relative_to(out) else folder
         link = (("html", f'<a href="{_esc((rel / "report.html").as_posix())}">{_esc(rel.as_posix())}</a>')
                 if (folder / "report.html").exists() else str(rel))
-        rows.append((str(value), status, c, a, link))
+        rows.append((str(value), status, c, a, link))  # value: the swept value, or "set: key=value"
     parts = [f"<header><h1>{_esc(title or out.name)}</h1><p>polypack [sweep] run: one study per value; "
              "each value's run has its own report.</p></header><main>",
              "<h2>Values</h2>",
@@ -694,7 +698,9 @@ def sweep_report(out, entries, *, title=None):
         parts.append("<h2>Stiffness against the degree of heterogeneity (seed 003)</h2>")
         parts.append("<p>Table 2 of 003_873b69fc71c74cf6.txt side by side: this run (mean ± standard error over "
                      "the realizations for a and C; G′p mean ± spread over shear planes and realizations) and the "
-                     "seed's row of the same protocol and value (N = 8000).</p>")
+                     "seed's row of the same protocol and value (N = 8000). G′p is the static modulus of the "
+                     "bonded network; the dynamic column is the storage modulus of the oscillatory shear test "
+                     "([analysis.shear], the seed's protocol) of the structures that had it.</p>")
         parts.append(_table(*_table2_side_by_side(fit.get("rows", []))))
         f = fit.get("fit")
         if f:

@@ -18,6 +18,12 @@ writes ``<out>/heterogeneity/``:
   (:data:`FIG5_KN`, ``ks / kn`` of the study), and the ratio G'p^HE / G'p^HO per ``kn``
   (seed: ≈ 3.4) in ``fit.json`` (``fig5``) and ``table2.md`` (:func:`stiffness_series`).
 
+Structures whose record has an ``[analysis.shear]`` result (the ``dynamic`` values of a sweep,
+:mod:`polypack.ensemble.sweep`) also get their dynamic G'p (storage modulus of the oscillatory shear test,
+mean over its directions; :func:`_dynamic_values`) beside the static one: ``G_dyn_Pa`` per point and
+``G_dyn_MPa`` per row in ``fit.json``, a ``G'p dynamic`` column in ``table2.md`` / ``table2.csv`` and open
+diamonds in ``fig6.png``; the fit stays on the chosen ``modulus``.
+
 Every set (each swept value, each included folder) is labelled by its study's protocol (its
 registered display name, :attr:`polypack.registry.Capability.title`) and the value that tells it
 apart (:func:`set_label`: ``"VEM N_V/N = 0.5"``, ``"Brownian Ψ0 = 14 mV"``) and sits beside the
@@ -200,21 +206,22 @@ def _value_words(key: str, v) -> str:
     return f"{key} = {v:g}" if isinstance(v, (int, float)) and not isinstance(v, bool) else f"{key} = {v}"
 
 
-def set_label(folder, parameter=None, value=None):
+def set_label(folder, parameter=None, value=None, title=None):
     """``(label, kind, key, value)`` of one structure set (run folder) in the heterogeneity report.
 
     The label names the protocol kind of the folder's study and the value that tells the
     set apart: the swept ``parameter`` = ``value`` when given, else the kind's own option
     (``void_ratio`` of VEM, ``surface_potential`` of Brownian dynamics), e.g.
-    ``"VEM N_V/N = 0.5"`` or ``"Brownian Ψ0 = 14 mV"``; a folder without a study record
-    is labelled by its name.
+    ``"VEM N_V/N = 0.5"`` or ``"Brownian Ψ0 = 14 mV"``; ``title`` (a ``[[sweep.set]]``
+    ``label``) replaces the protocol's name (``"BD creeping Ψ0 = 14 mV"``); a folder without a
+    study record is labelled by its name.
     """
     folder = Path(folder)
     prot = _protocol(folder)
     kind = prot.get("kind")
     if kind is None:
-        return folder.name, None, None, folder.name
-    word = _kind_word(kind)
+        return (folder.name if title is None else f"{title} ({folder.name})"), None, None, folder.name
+    word = _kind_word(kind) if title is None else title
     if parameter is not None:
         key = parameter.split(".")[-1]
     else:
@@ -240,7 +247,9 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
                          fmt="png", fig5_kn=None):
     """Table 2, Figs. 2 and 6 and the fit of Eq. (7) of 003_873b69fc71c74cf6.txt over the structures of ``sets``.
 
-    ``sets`` is a list of ``(value, run_folder)`` of the swept ``parameter``; ``include``
+    ``sets`` is a list of ``(value, run_folder)`` of the swept ``parameter``, or of ``(value, run_folder,
+    parameter, title)`` (a sweep of several ``[[sweep.set]]`` tables: each value with its set's own swept
+    parameter and label, None for the protocol's title); ``include``
     more run folders (other structure sets, e.g. SCRM or Brownian-dynamics packs at
     Φ = 0.4) that enter the fit and the figures.  Every set is labelled by its protocol
     kind and value (:func:`set_label`, e.g. ``"VEM N_V/N = 0.5"``, ``"Brownian Ψ0 = 14 mV"``)
@@ -259,11 +268,22 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
     semantics = set()
     unconverged = []
     where = []  # (folder, pack file, G'p source) of each point, for Fig. 5
-    groups = [(Path(f), *set_label(f, parameter, v)) for v, f in sets] + [(Path(f), *set_label(f)) for f in include]
+    groups = []
+    for item in sets:  # (value, folder[, parameter[, title]])
+        item = tuple(item)
+        v, f = item[:2]
+        par = item[2] if len(item) > 2 and item[2] is not None else parameter
+        title = item[3] if len(item) > 3 else None
+        groups.append((Path(f), *set_label(f, par, v, title)))
+    groups += [(Path(f), *set_label(f)) for f in include]
+    keys = list(dict.fromkeys(g[3] for g in groups if g[3] is not None)) or [parameter.split(".")[-1]]
     for folder, label, kind, vkey, v in groups:
         vals, floppy = [], 0
+        dyn = []  # dynamic G'p (oscillatory shear) of the structures that have it
+        dyn_tested = dyn_floppy = 0
         for rec, gsd in _records(folder):
             a, b, c, g, gsd_sd, src, g_aff = _structure_values(rec, gsd, elastic, modulus)
+            gd = _dynamic_values(rec)
             sources.add(src)
             semantics.add(_semantics(rec, src, elastic))
             if not math.isfinite(g):  # a dynamic test that did not converge: no modulus
@@ -279,20 +299,34 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
                 floppy += 1
             vals.append((a, b, c, g, gsd_sd))
             where.append((folder, gsd, src))
-            points.append({"set": label, "kind": kind, "parameter": vkey, "value": v, "index": rec["index"],
-                           "a": a, "b": b, "C": c,
-                           "G_Pa": g, "G_sd_Pa": gsd_sd, "rigid": rigid})
+            point = {"set": label, "kind": kind, "parameter": vkey, "value": v, "index": rec["index"],
+                     "a": a, "b": b, "C": c, "G_Pa": g, "G_sd_Pa": gsd_sd, "rigid": rigid}
+            if gd is not None:  # the static and the dynamic G'p of one structure side by side
+                point.update(G_dyn_Pa=gd[0] if math.isfinite(gd[0]) else None, G_dyn_sd_Pa=gd[1],
+                             dynamic_status=gd[2])
+                dyn_tested += 1
+                dyn_floppy += gd[2] == "floppy"
+                if math.isfinite(gd[0]):
+                    dyn.append(gd[:2])
+            points.append(point)
         if not vals:
             continue
         arr = np.asarray(vals)
         nr = arr.shape[0]
         se = (lambda x: float(x.std(ddof=1) / math.sqrt(nr)) if nr > 1 else float("nan"))
         gall = np.sqrt(np.mean(arr[:, 4] ** 2) + (arr[:, 3].var(ddof=1) if nr > 1 else 0.0))
-        rows.append({"set": label, "kind": kind, "parameter": vkey, parameter.split(".")[-1]: v, "realizations": nr,
-                     "a": float(arr[:, 0].mean()), "a_se": se(arr[:, 0]), "b": float(arr[:, 1].mean()),
-                     "C": float(np.nanmean(arr[:, 2])), "C_se": se(arr[:, 2]),
-                     "G_MPa": float(arr[:, 3].mean()) * 1e-6, "G_sd_MPa": float(gall) * 1e-6,
-                     "floppy": floppy})
+        row = {"set": label, "kind": kind, "parameter": vkey, (vkey or keys[0]): v, "value": v, "realizations": nr,
+               "a": float(arr[:, 0].mean()), "a_se": se(arr[:, 0]), "b": float(arr[:, 1].mean()),
+               "C": float(np.nanmean(arr[:, 2])), "C_se": se(arr[:, 2]),
+               "G_MPa": float(arr[:, 3].mean()) * 1e-6, "G_sd_MPa": float(gall) * 1e-6,
+               "floppy": floppy, "dynamic": len(dyn), "dynamic_tested": dyn_tested, "dynamic_floppy": dyn_floppy,
+               "G_dyn_MPa": None, "G_dyn_sd_MPa": None}
+        if dyn:  # mean over the structures; spread over their shear directions and the structures
+            d = np.asarray(dyn)
+            row["G_dyn_MPa"] = float(d[:, 0].mean()) * 1e-6
+            row["G_dyn_sd_MPa"] = float(np.sqrt(np.mean(d[:, 1] ** 2) + (d[:, 0].var(ddof=1) if len(d) > 1
+                                                                          else 0.0))) * 1e-6
+        rows.append(row)
     if not points:
         raise InvalidInputError(f"heterogeneity report: no complete realization under {out}")
     a = np.array([p["a"] for p in points])
@@ -317,21 +351,22 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
     fig5 = (None if fig5_kn is not None and len(fig5_kn) == 0
             else _fig5(points, where, elastic, FIG5_KN if fig5_kn is None else tuple(fig5_kn)))
     files = {}
-    key = parameter.split(".")[-1]
-    cols = ["set", key, "realizations", "a", "a_se", "b", "C", "C_se", "G_MPa", "G_sd_MPa", "floppy"]
+    key = keys[0] if len(keys) == 1 else "value"  # the value column: the one swept key, else "value"
+    cols = ["set", *keys, "realizations", "a", "a_se", "b", "C", "C_se", "G_MPa", "G_sd_MPa", "floppy",
+            "G_dyn_MPa", "G_dyn_sd_MPa"]
     with atomic_path(rep / "table2.csv") as tmp:
         with open(tmp, "w") as fh:
             fh.write(",".join(cols) + "\n")
             for r in rows:
-                fh.write(",".join(str(r[c]) for c in cols) + "\n")
+                fh.write(",".join("" if r.get(c) is None else str(r[c]) for c in cols) + "\n")
     files["table"] = rep / "table2.csv"
-    lines = [f"| set | {key} | P | a | b | C | G'p (MPa) | seed a | seed C | seed G'p (MPa) |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+    lines = [f"| set | {key} | P | a | b | C | G'p (MPa) | G'p dynamic (MPa) | seed a | seed C | seed G'p (MPa) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        s = _seed_row(r["kind"], r["parameter"], r[key])
+        s = _seed_row(r["kind"], r["parameter"], r["value"])
         sa = f"{s[1]:.3f} | {s[2]:.2f} | {s[3]:.2f} ± {s[4]:.2f}" if s else "– | – | –"
-        lines.append(f"| {r['set']} | {r[key]} | {r['realizations']} | {r['a']:.3f} ± {r['a_se']:.3f} | {r['b']:.3f} | "
-                     f"{r['C']:.2f} | {_g_cell(r)} | {sa} |")
+        lines.append(f"| {r['set']} | {r['value']} | {r['realizations']} | {r['a']:.3f} ± {r['a_se']:.3f} | "
+                     f"{r['b']:.3f} | {r['C']:.2f} | {_g_cell(r)} | {_g_dyn_cell(r)} | {sa} |")
     lines.append("")
     lines.append(f"G'p source: {', '.join(sorted(sources))}; bonds at epsilon = {elastic['epsilon']:g}, "
                  f"kn = {elastic['normal_stiffness']:g} N/m, ks = {elastic['shear_stiffness']:g} N/m; "
@@ -448,6 +483,36 @@ def _fig5(points, where, elastic, kn_values):
     return res
 
 
+def _dynamic_values(rec):
+    """``(G', spread, status)`` in Pa of a structure's ``[analysis.shear]`` record (the dynamic G'p: mean and
+    standard deviation over its shear directions, the seed's oscillatory test); ``(0, 0, "floppy")`` for a
+    floppy network (no DEM run), NaN when the test did not converge; None without a shear record."""
+    sh = rec.get("analysis", {}).get("shear")
+    if not isinstance(sh, dict) or ("direction" not in sh and "status" not in sh):
+        return None
+    status = str(sh.get("status") or "ok")
+    if status == "floppy":
+        return 0.0, 0.0, status
+    g = np.asarray([np.nan if d.get("storage_modulus") is None else d["storage_modulus"]
+                    for d in (sh.get("direction") or {}).values()] or [np.nan], dtype=np.float64)
+    if not np.all(np.isfinite(g)):
+        return math.nan, math.nan, status if status != "ok" else "not_converged"
+    return float(g.mean()), float(g.std(ddof=0)), status
+
+
+def _g_dyn_cell(row):
+    """The dynamic G'p cell of a Table 2 row: mean ± spread over the structures that had the shear test."""
+    tested, n = row.get("dynamic_tested", row.get("dynamic", 0)), row.get("dynamic", 0)
+    if not tested:
+        return "–"
+    lost = f", {tested - n} not converged" if tested > n else ""
+    if n and row.get("dynamic_floppy") == n:
+        return f"0 (floppy, {n} of {row['realizations']}{lost})"
+    if not n:
+        return f"– ({tested} not converged)"
+    return f"{row['G_dyn_MPa']:.3g} ± {row['G_dyn_sd_MPa']:.2g} ({n} of {row['realizations']}{lost})"
+
+
 def _g_cell(row):
     """The G'p cell of a Table 2 row: mean ± spread, and how many structures are floppy."""
     if row["floppy"] == row["realizations"]:
@@ -492,8 +557,13 @@ def _plots(rep, points, fit, fmt):
     fig, ax = plt.subplots(figsize=(5.5, 6))
     for s in sets:
         sel = [p for p in points if p["set"] == s]
-        ax.errorbar([p["a"] for p in sel], [p["G_Pa"] * 1e-6 for p in sel], yerr=[p["G_sd_Pa"] * 1e-6 for p in sel],
-                    fmt=marker.get(order[s], "D"), ms=4, capsize=2, label=f"{s} (this run)")
+        eb = ax.errorbar([p["a"] for p in sel], [p["G_Pa"] * 1e-6 for p in sel], yerr=[p["G_sd_Pa"] * 1e-6 for p in sel],
+                         fmt=marker.get(order[s], "D"), ms=4, capsize=2, label=f"{s} (this run)")
+        dyn = [p for p in sel if p.get("G_dyn_Pa") is not None]
+        if dyn:  # the dynamic G'p (oscillatory shear) beside the static one, same colour, open symbol
+            ax.errorbar([p["a"] for p in dyn], [p["G_dyn_Pa"] * 1e-6 for p in dyn],
+                        yerr=[(p.get("G_dyn_sd_Pa") or 0.0) * 1e-6 for p in dyn], fmt="D", mfc="none", ms=6,
+                        capsize=2, color=eb[0].get_color(), label=f"{s}: dynamic G′ (oscillatory shear)")
     for key, mk, lab in (("vem", "s", "seed VEM (Table 2)"), ("bd", "^", "seed BD (Table 2)")):
         ax.errorbar([x[1] for x in SEED_TABLE2[key]], [x[3] for x in SEED_TABLE2[key]],
                     yerr=[x[4] for x in SEED_TABLE2[key]], fmt=mk, mfc="none", color="k", capsize=2, label=lab)
@@ -514,8 +584,8 @@ def _plots(rep, points, fit, fmt):
                  "bars: spread over the shear directions", fontsize=8)
     ax.legend(fontsize=6, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2)
     fig.tight_layout()
-    with atomic_path(rep / f"fig6.{fmt}") as tmp:
-        fig.savefig(tmp, format=fmt, dpi=130)
+    with atomic_path(rep / f"fig6.{fmt}") as tmp:  # tight: the legend below the axes is part of the figure
+        fig.savefig(tmp, format=fmt, dpi=130, bbox_inches="tight")
     plt.close(fig)
     files["fig6"] = rep / f"fig6.{fmt}"
     return files

@@ -1,0 +1,355 @@
+"""Sweeps of several structure sets in one run (``[[sweep.set]]``, issue 32): VEM and Brownian-dynamics
+sets of seed 003 (003_873b69fc71c74cf6.txt) with one report (Table 2, Figs. 2, 5, 6, the joint fit of
+Eq. (7) of 003_873b69fc71c74cf6.txt) and the dynamic G'p of chosen values beside the static one."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from polypack.ensemble.sweep import run_sweep, sweep_plan, sweep_studies
+from polypack.errors import InvalidInputError
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: A two-set study at tiny N (48 VEM spheres coagulated: rigid; 40 BD spheres): seconds per structure.
+TWO_SETS = """
+[study]
+name = "two"
+seed = 3
+realizations = 2
+
+[psd]
+model = "monodisperse"
+d = 0.5e-6
+n = 48
+
+[protocol]
+kind = "vem"
+volume_fraction = 0.4
+restructure = "coagulation"
+
+[analysis.pores]
+n_points = 2000
+
+[analysis.contacts]
+tolerance = 0.01
+
+[analysis.elastic]
+bonds = "distance"
+epsilon = 0.01
+normal_stiffness = 100.0
+stiffness = "particle"
+radius = 0.25e-6
+
+[output]
+plots = false
+
+[sweep]
+report = "heterogeneity"
+fig5_kn = [50.0, 100.0]
+
+[sweep.shear]
+cycles = 3
+steps_per_cycle = 1000
+samples_per_cycle = 20
+directions = [[2, 0]]
+
+[[sweep.set]]
+name = "vem"
+parameter = "protocol.void_ratio"
+values = [0.25, 1.0]
+dynamic = [0.25]
+
+[[sweep.set]]
+name = "bd"
+parameter = "protocol.surface_potential"
+values = [0.0, 0.012]
+dynamic = 0.0
+[sweep.set.psd]
+n = 40
+[sweep.set.protocol]
+kind = "brownian"
+volume_fraction = 0.4
+"""
+
+
+def _data():
+    import tomllib
+
+    return tomllib.loads(TWO_SETS)
+
+
+def test_sets_are_ordinary_studies_with_their_own_protocol():
+    """Each set's values are studies of that set's protocol: the same kind merges into [protocol] key by
+    key, another kind replaces it (a VEM option never reaches the BD study); [sweep.set.psd] overrides;
+    the dynamic values (only they) get [analysis.shear] with the bond options of [analysis.elastic]
+    and the [sweep.shear] options; the folders are <set>/<key>=<value>."""
+    sw, entries, name = sweep_plan(_data())
+    assert name == "two" and [s["name"] for s in sw["sets"]] == ["vem", "bd"]
+    got = [(e.set, e.value, str(e.rel), e.dynamic) for e in entries]
+    assert got == [("vem", 0.25, "vem/void_ratio=0.25", True), ("vem", 1.0, "vem/void_ratio=1", False),
+                   ("bd", 0.0, "bd/surface_potential=0", True), ("bd", 0.012, "bd/surface_potential=0.012", False)]
+    for e in entries:
+        d = e.study.data
+        kind = "vem" if e.set == "vem" else "brownian"
+        assert d["protocol"]["kind"] == kind
+        assert d["protocol"][e.parameter.split(".")[-1]] == e.value
+        assert d["psd"]["n"] == (48 if e.set == "vem" else 40)
+        assert e.study.seed == 3  # common random numbers across values and sets
+        if e.set == "vem":
+            assert d["protocol"]["restructure"] == "coagulation"  # merged with the study's [protocol]
+        else:
+            assert "restructure" not in d["protocol"] and "void_ratio" not in d["protocol"]
+        assert ("shear" in d["analysis"]) == e.dynamic
+        if e.dynamic:
+            sh = d["analysis"]["shear"]
+            assert (sh["bonds"], sh["epsilon"], sh["stiffness"], sh["radius"]) == ("distance", 0.01, "particle",
+                                                                                  0.25e-6)
+            assert (sh["cycles"], sh["steps_per_cycle"], sh["directions"]) == (3, 1000, [[2, 0]])
+    assert len({e.study.fingerprint for e in entries}) == 4
+    # the same kind in a set's [protocol]: merged key by key (the study's restructure stays)
+    d = _data()
+    d["sweep"]["set"][0]["protocol"] = {"kind": "vem", "growth_factor": 1.05}
+    _, entries, _ = sweep_plan(d)
+    assert entries[0].study.data["protocol"]["restructure"] == "coagulation"
+    assert entries[0].study.data["protocol"]["growth_factor"] == 1.05
+    # the old form (one parameter, no sets) keeps its folders and its dynamic choice
+    d = _data()
+    del d["sweep"]["set"]
+    d["sweep"].update(parameter="protocol.void_ratio", values=[0.5, 2.0], dynamic=2)
+    _, entries, _ = sweep_plan(d)
+    assert [(str(e.rel), e.dynamic) for e in entries] == [("void_ratio=0.5", False), ("void_ratio=2", True)]
+
+
+def _set(**kw):
+    d = _data()
+    d["sweep"]["set"][1].update(kw)
+    return d
+
+
+@pytest.mark.parametrize("edit, match", [
+    (lambda d: d["sweep"]["set"][1].update(bogus=1), r'^sweep.set "bd".bogus: unknown key; allowed in \[\[sweep.set\]\]'),
+    (lambda d: d["sweep"]["set"][1].update(name="vem"), r"^sweep.set #2.name = 'vem': another set has this name"),
+    (lambda d: d["sweep"]["set"][1].update(name="heterogeneity"), r"^sweep.set #2.name = 'heterogeneity': give a "
+                                                                   "folder name"),
+    (lambda d: d["sweep"]["set"][1].update(name="a/b"), r"^sweep.set #2.name = 'a/b'"),
+    (lambda d: d["sweep"]["set"][1].update(values=[]), r'^sweep.set "bd".values = \[\]: give a non-empty list$'),
+    (lambda d: d["sweep"]["set"][1].update(parameter="surface_potential"),
+     r'^sweep.set "bd".parameter = \'surface_potential\': give a key path'),
+    (lambda d: d["sweep"]["set"][1].update(dynamic=0.013), r'^sweep.set "bd".dynamic = 0.013: 0.013 is not one of '
+                                                            r"the values \[0.0, 0.012\]"),
+    (lambda d: d["sweep"]["set"][1].update(label=""), r'^sweep.set "bd".label = \'\': give a text'),
+    (lambda d: d["sweep"]["set"][1].update(protocol="brownian"), r'^sweep.set "bd".protocol = \'brownian\': '
+                                                                  "expected a table"),
+    (lambda d: d["sweep"]["set"][1].update(analysis={"elastic": 1}), r'^sweep.set "bd".analysis.elastic = 1: '
+                                                                      "expected a table"),
+    (lambda d: d["sweep"]["set"][1].update(values=[0.0, "high"]),
+     r'^sweep.set "bd" value \'high\': protocol.surface_potential = "high": expected a number'),
+    (lambda d: d["sweep"]["set"][1]["protocol"].update(bonds="glue"),
+     r'^sweep.set "bd" value 0.0: protocol.bonds = "glue": allowed: "flexible"'),
+    (lambda d: d["sweep"]["set"][1]["protocol"].update(void_ratio=1.0),
+     r'^sweep.set "bd" value 0.0: protocol.void_ratio: only used with protocol.kind = "vem"'),
+    (lambda d: d["sweep"]["set"][0].update(analysis={"elastic": {"epsilon": -1.0}}),
+     r'^sweep.set "vem" value 0.25: analysis.elastic.epsilon = -1.0'),
+    (lambda d: d["sweep"].update(parameter="protocol.void_ratio"), r"^sweep.parameter: with \[\[sweep.set\]\] tables "
+                                                                   "give parameter in each set"),
+    (lambda d: d["sweep"].update(set=[]), r"^sweep.set = \[\]: give one or more \[\[sweep.set\]\] tables$"),
+    (lambda d: d["sweep"]["shear"].update(cycles=0), r"^sweep.shear.cycles = 0: "),
+    (lambda d: d["sweep"]["shear"].update(bogus=1), r"^sweep.shear.bogus: unknown key"),
+    (lambda d: d["sweep"]["set"][1].update(analysis={"pores": {"n_points": 5}}),
+     r'^sweep.set "bd" value 0.0: analysis.pores.n_points = 5'),
+    (lambda d: d["sweep"].update(modulus="shear"), r'^sweep.set "vem": sweep.modulus = "shear": needs '
+                                                   r"\[analysis.shear\]"),
+])
+def test_bad_set_tables_are_one_line_errors(edit, match):
+    d = _data()
+    edit(d)
+    with pytest.raises(InvalidInputError, match=match) as info:
+        sweep_studies(d)
+    assert "\n" not in str(info.value)
+
+
+def test_check_validates_every_set_through_the_cli(tmp_path, capsys):
+    """``polypack run --check`` names every set with its values and dynamic choice; a bad option of
+    the second set is one line naming the set, the value and the key."""
+    from polypack.cli import main
+
+    f = tmp_path / "two.toml"
+    f.write_text(TWO_SETS)
+    main(["run", str(f), "--check"])
+    out = capsys.readouterr().out
+    assert "valid sweep of 2 sets, 4 values in all" in out
+    assert "vem: protocol.void_ratio = 0.25, 1.0; dynamic G'p at 0.25" in out
+    assert "bd: protocol.surface_potential = 0.0, 0.012; dynamic G'p at 0.0" in out
+    f.write_text(TWO_SETS.replace('kind = "brownian"\n', 'kind = "brownian"\ntime_step = -1.0\n'))
+    with pytest.raises(SystemExit) as info:
+        main(["run", str(f), "--check"])
+    assert info.value.code == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith('error: sweep.set "bd" value 0.0: protocol.time_step = -1.0')
+    assert not (tmp_path / "out").exists()
+
+
+def _records(folder):
+    return [json.loads(p.read_text()) for p in sorted((folder / "realizations").glob("r*.json"))]
+
+
+@pytest.mark.slow
+def test_two_sets_run_end_to_end_through_the_cli(tmp_path):
+    """One command makes both sets into sub-folders of one output folder and one report: Table 2 holds
+    the rows of both sets beside the seed's row of their kind and value, the joint fit of Eq. (7) of
+    003_873b69fc71c74cf6.txt takes the rigid structures of both, Fig. 5 comes from the BD set, the
+    dynamic G'p of the dynamic values (one per set) stands beside the static one (the mean of their
+    records' storage moduli), and report.html shows all of it. Rerunning resumes: nothing is recomputed,
+    and a lost realization of one set is recomputed alone."""
+    from typer.testing import CliRunner
+
+    from polypack.analysis.powerlaw import power_law_fit
+    from polypack.cli import app
+
+    f = tmp_path / "two.toml"
+    f.write_text(TWO_SETS)
+    out = tmp_path / "o"
+    res = CliRunner().invoke(app, ["run", str(f), "--out", str(out), "--no-progress"])
+    assert res.exit_code == 0, res.output
+    subs = ["vem/void_ratio=0.25", "vem/void_ratio=1", "bd/surface_potential=0", "bd/surface_potential=0.012"]
+    for sub in subs:
+        assert (out / sub / "summary.csv").exists() and (out / sub / "report.html").exists()
+        assert len(_records(out / sub)) == 2
+    kinds = {sub: json.loads((out / sub / "study.resolved.json").read_text())["study"]["protocol"]["kind"]
+             for sub in subs}
+    assert kinds == dict(zip(subs, ["vem", "vem", "brownian", "brownian"]))
+    assert json.loads((out / subs[2] / "study.resolved.json").read_text())["study"]["psd"]["n"] == 40
+    data = json.loads((out / "heterogeneity" / "fit.json").read_text())
+    labels = ["VEM N_V/N = 0.25", "VEM N_V/N = 1", "Brownian Ψ0 = 0 mV", "Brownian Ψ0 = 12 mV"]
+    assert [r["set"] for r in data["rows"]] == labels
+    assert [r["kind"] for r in data["rows"]] == ["vem", "vem", "brownian", "brownian"]
+    # Table 2: each row's a and C are its records' means; the seed's row of its kind and value beside it
+    for r, sub in zip(data["rows"], subs):
+        recs = _records(out / sub)
+        assert r["a"] == pytest.approx(np.mean([q["analysis"]["pores"]["fit"]["seed"]["a"] for q in recs]), rel=1e-12)
+        assert r["C"] == pytest.approx(np.mean([q["analysis"]["contacts"]["coordination"] for q in recs]), rel=1e-12)
+    md = (out / "heterogeneity" / "table2.md").read_text()
+    assert re.search(r"^\| VEM N_V/N = 0.25 \| 0.25 \|.*\| 0.521 \| 4.71 \| 1.83 ± 0.14 \|$", md, re.M)
+    assert re.search(r"^\| Brownian Ψ0 = 0 mV \| 0.0 \|.*\| 0.373 \| 4.52 \| 0.48 ± 0.05 \|$", md, re.M)
+    assert re.search(r"^\| Brownian Ψ0 = 12 mV \| 0.012 \|.*\| 0.404 \| 4.84 \| 1.19 ± 0.14 \|$", md, re.M)
+    # the dynamic G'p: the values that had the shear test, the mean of their records' storage moduli
+    for r, sub in zip(data["rows"], subs):
+        recs = _records(out / sub)
+        has = ["shear" in q["analysis"] for q in recs]
+        assert all(has) == (sub in (subs[0], subs[2])) and any(has) == all(has)
+        if all(has):
+            g = [np.mean([d["storage_modulus"] for d in q["analysis"]["shear"]["direction"].values()]) for q in recs]
+            assert r["dynamic"] == 2 and r["G_dyn_MPa"] == pytest.approx(1e-6 * np.mean(g), rel=1e-12)
+            assert r["G_dyn_MPa"] > 0
+        else:
+            assert r["dynamic"] == 0 and r["G_dyn_MPa"] is None
+    # the joint fit: every rigid structure of both sets, and only those (an independent refit from the records)
+    rigid = [p for p in data["points"] if p["rigid"]]
+    assert {p["kind"] for p in rigid} == {"vem", "brownian"}
+    assert data["fit"]["n_points"] == len(rigid) >= 6
+    a = np.array([p["a"] for p in rigid])
+    g = np.array([p["G_Pa"] for p in rigid]) * 1e-6
+    sd = np.array([p["G_sd_Pa"] for p in rigid]) * 1e-6
+    ref = power_law_fit(a, g, sigma=sd if np.all(sd > 0) else None)
+    assert data["fit"]["a0"] == pytest.approx(ref.a0, rel=1e-9, abs=1e-12)
+    assert data["fit"]["beta"] == pytest.approx(ref.beta, rel=1e-9, abs=1e-12)
+    assert "Brownian" in data["fig5"]["he"]["set"] and "Brownian" in data["fig5"]["ho"]["set"]
+    # report.html: the values of both sets linked, Table 2 with both kinds and the dynamic column, figures
+    page = (out / "report.html").read_text()
+    for sub in subs:
+        assert f'href="{sub}/report.html"' in page
+    assert "bd: surface_potential=0.012" in page and "vem: void_ratio=0.25" in page
+    assert "G′p MPa dynamic (oscillatory shear)" in page
+    for lab, seed_a in zip(labels, ("0.521", "0.418", "0.373", "0.404")):
+        cells = re.findall(r"<td[^>]*>(.*?)</td>", re.search(rf"<td>{re.escape(lab)}</td>(.*?)</tr>", page, re.S).group(1))
+        assert cells[2] == seed_a
+        assert (cells[8] == "–") == (lab in (labels[1], labels[3]))
+    assert page.count("data:image/png;base64") == 3  # Figs. 2, 5 and 6
+    # resume: a second run computes nothing; a lost realization of one set is recomputed alone
+    stamps = {p: p.stat().st_mtime_ns for sub in subs for p in (out / sub / "realizations").glob("r*.json")}
+    again = run_sweep(f, out, progress=False, echo=lambda s: None)
+    assert set(again) == {("vem", 0.25), ("vem", 1.0), ("bd", 0.0), ("bd", 0.012)}
+    assert all(not r.computed and len(r.skipped) == 2 for r in again.values())
+    assert {p: p.stat().st_mtime_ns for p in stamps} == stamps
+    lost = out / subs[3] / "realizations" / "r0001.json"
+    lost.unlink()
+    again = run_sweep(f, out, progress=False, echo=lambda s: None)
+    assert {k: r.computed for k, r in again.items()} == {("vem", 0.25): [], ("vem", 1.0): [], ("bd", 0.0): [],
+                                                          ("bd", 0.012): [1]}
+    assert lost.exists()
+    assert all(p.stat().st_mtime_ns == t for p, t in stamps.items() if p != lost)
+
+
+def test_bundled_seed_study_makes_both_sets():
+    """examples/heterogeneity_seed.toml is the whole seed-size study: VEM at the six N_V/N of Table 2 and
+    BD at its five Ψ0 (volts), N = 8000, P = 3, one dynamic value per set, the heterogeneity report."""
+    sw, entries, name = sweep_plan(ROOT / "examples" / "heterogeneity_seed.toml")
+    assert sw["report"] == "heterogeneity" and [s["name"] for s in sw["sets"]] == ["vem", "bd"]
+    vem = [e for e in entries if e.set == "vem"]
+    bd = [e for e in entries if e.set == "bd"]
+    assert [e.value for e in vem] == [0.125, 0.25, 0.5, 1.0, 1.625, 2.0]
+    assert [e.value for e in bd] == [0.0, 0.012, 0.013, 0.014, 0.015]
+    assert sum(e.dynamic for e in vem) >= 1 and sum(e.dynamic for e in bd) >= 1
+    for e in entries:
+        d = e.study.data
+        assert d["psd"]["n"] == 8000 and d["study"]["realizations"] == 3 and d["psd"]["d"] == 0.5e-6
+        assert d["protocol"]["kind"] == ("vem" if e.set == "vem" else "brownian")
+        assert d["protocol"]["volume_fraction"] == 0.4
+        assert {"pores", "contacts", "elastic"} <= set(d["analysis"])
+        assert d["analysis"]["elastic"]["bonds"] == "distance"  # the seed's ε rule for both sets
+        assert ("shear" in d["analysis"]) == e.dynamic
+
+
+def test_dynamic_gp_beside_the_static_one_from_the_records(tmp_path):
+    """The report's dynamic G'p of a value: per structure the mean of its [analysis.shear] storage moduli
+    over the directions (spread: their standard deviation); per row the mean over the structures that had
+    the test; a floppy network (no DEM run) is 0, a test that did not converge is left out and counted;
+    structures without the test have none. The static G'p and the fit do not change."""
+    from polypack.studies.seed003_heterogeneity import _dynamic_values, _g_dyn_cell, heterogeneity_report
+
+    def run(name, recs):
+        folder = tmp_path / name
+        (folder / "realizations").mkdir(parents=True)
+        (folder / "study.resolved.json").write_text(json.dumps({"study": {"protocol": {"kind": "vem"}}}))
+        for i, (a, g, sh) in enumerate(recs):
+            ana = {"pores": {"fit": {"seed": {"a": a, "b": 0.0}}}, "contacts": {"coordination": 4.6},
+                   "elastic": {"shear_moduli": [g] * 3, "affine_shear_modulus": 1e8, "rigid": g > 0}}
+            if sh is not None:
+                ana["shear"] = sh
+            rec = {"index": i, "protocol": {"status": "target"}, "analysis": ana}
+            (folder / "realizations" / f"r{i:04d}.json").write_text(json.dumps(rec))
+        return folder
+
+    def shear(*g, status="ok"):
+        return {"status": status, "direction": {f"{k}-0": {"storage_modulus": x} for k, x in enumerate(g)}}
+
+    a = run("a", [(0.45, 2.0e6, shear(1.0e6, 3.0e6)), (0.47, 3.0e6, shear(4.0e6, 6.0e6)),
+                  (0.46, 2.5e6, shear(None, status="not_converged"))])
+    b = run("b", [(0.40, 1.0e6, None), (0.50, 4.0e6, None)])
+    c = run("c", [(0.36, 0.0, {"status": "floppy", "direction": {}})])
+    assert _dynamic_values({"analysis": {}}) is None
+    assert _dynamic_values({"analysis": {"shear": shear(1.0, 3.0)}}) == (2.0, 1.0, "ok")
+    assert _dynamic_values({"analysis": {"shear": {"status": "floppy", "direction": {}}}}) == (0.0, 0.0, "floppy")
+    heterogeneity_report(tmp_path / "out", [(0.5, a), (1.0, b), (2.0, c)], parameter="protocol.void_ratio", fig5_kn=[])
+    data = json.loads((tmp_path / "out" / "heterogeneity" / "fit.json").read_text())
+    ra, rb, rc = data["rows"]
+    assert (ra["dynamic"], ra["dynamic_tested"]) == (2, 3)
+    assert ra["G_dyn_MPa"] == pytest.approx(3.5)  # structures 2.0 and 5.0 MPa
+    # spread: rms of the per-structure spreads (1.0 MPa each) and the variance between structures (4.5 MPa²)
+    assert ra["G_dyn_sd_MPa"] == pytest.approx(np.sqrt(1.0 + 4.5))
+    assert ra["G_MPa"] == pytest.approx(2.5)  # the static G'p is untouched
+    assert _g_dyn_cell(ra) == "3.5 ± 2.3 (2 of 3, 1 not converged)"
+    assert (rb["dynamic"], rb["G_dyn_MPa"], _g_dyn_cell(rb)) == (0, None, "–")
+    assert (rc["dynamic"], rc["G_dyn_MPa"], _g_dyn_cell(rc)) == (1, 0.0, "0 (floppy, 1 of 1)")
+    pts = data["points"]
+    assert [p.get("G_dyn_Pa") for p in pts] == [2.0e6, 5.0e6, None, None, None, 0.0]
+    assert pts[2]["dynamic_status"] == "not_converged" and "dynamic_status" not in pts[3]
+    md = (tmp_path / "out" / "heterogeneity" / "table2.md").read_text()
+    assert "| G'p dynamic (MPa) |" in md and "3.5 ± 2.3 (2 of 3, 1 not converged)" in md
+    assert data["fit"]["n_points"] == 5  # the static moduli of the rigid structures, as without the test
