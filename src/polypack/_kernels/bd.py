@@ -14,7 +14,7 @@ with ``F`` the total force in units of ``kT/a``, followed by constraint projecti
   ``P_CAP_DRIFT`` of the gap ``h`` in one step (the deep inner side of a DLVO well is
   not resolvable with Brownian steps; the cap makes the pair approach contact
   geometrically instead of jumping through it).  One helper, :func:`_pair_force`, inside one pair loop,
-  :func:`_dlvo_forces`, serves all three kernels.
+  :func:`_central_forces`, serves all three kernels.
 * Bonds (``P_BOND_WIDTH >= 0``): after each step, Gauss–Seidel sweeps over the
   Verlet pairs (at most ``P_SWEEPS``, until the largest correction is below
   ``P_PROJ_TOL``) bond every unbonded pair with ``h < P_BOND_WIDTH`` (capture into the
@@ -79,6 +79,9 @@ P_ROTATE = 15  # run_tangential: 1 integrates rotations even without tangential 
 P_LUB_RANGE = 16  # lubrication range u_c (gap / a) of the pair mobility; 0 = free draining
 P_LUB_NO_DRIFT = 17  # 1 drops the Ito drift (div M) dt of the lubricated step (validation: a wrong scheme)
 N_PARAMS = 18
+
+#: cluster labels for :func:`_central_forces` in the kernels without rigid clusters (unused there)
+_NO_LABELS = np.zeros(1, np.int64)
 
 #: Gap (radii) below which the Honig factor is held constant (its derivative set to zero).
 LUB_U_FLOOR = 1e-4
@@ -457,67 +460,43 @@ def _pair_force(h, table, lo, inv_dh, cap_drift, dt, uc=0.0):
 
 
 @njit(cache=True)
-def _dlvo_forces(pos, box, params, pi, pj, flag, table, force, lab, skip_internal):
+def _central_forces(pos, box, params, pi, pj, flag, img, table, force, lab, rigid):
     """Add the tabulated central pair force of every unbonded listed pair to ``force``; returns sum r F.
 
-    ``skip_internal``: pairs inside one rigid cluster (``lab``, see :func:`_internal`) are
-    skipped (their forces cancel in the cluster's force and torque); ``lab`` is unused
-    otherwise.
+    The one pair-force loop of the three kernels (:func:`_pair_force` per pair).  The
+    flexible and tangential kernels (``rigid=False``) take each pair's minimum image from
+    the image counts ``img`` of the Verlet list (:func:`_shifted`, ``min_image`` bit for
+    bit for spheres unwrapped up to 1.5 boxes apart) and apply the lubrication range of
+    ``params`` to the attraction cap.  The rigid kernel (``rigid=True``) skips the pairs
+    inside one rigid cluster (``lab``, see :func:`_internal`; their forces cancel in the
+    cluster's force and torque), takes the plain minimum image (its clusters are shifted
+    by box vectors on merging, so stored image counts would go stale) and caps without
+    lubrication; ``lab`` is unused otherwise.  The branch is loop-invariant, so each
+    kernel runs the loop it had with its own copy (one pass over the pairs, same order,
+    same arithmetic).
     """
     dt = params[P_DT]
     rc2 = params[P_R_CUT] * params[P_R_CUT]
     cap_drift = params[P_CAP_DRIFT]
     lo = params[P_TAB_LO]
     inv_dh = 1.0 / params[P_TAB_DH]
-    uc = params[P_LUB_RANGE] if not skip_internal else 0.0
+    uc = params[P_LUB_RANGE] if not rigid else 0.0
     vir = 0.0
     for k in range(pi.shape[0]):
         if flag[k]:
             continue
         i = pi[k]
         j = pj[k]
-        if skip_internal and _internal(pos, box, i, j, lab):
-            continue
-        dx = min_image(pos[j, 0] - pos[i, 0], box[0])
-        dy = min_image(pos[j, 1] - pos[i, 1], box[1])
-        dz = min_image(pos[j, 2] - pos[i, 2], box[2])
-        r2 = dx * dx + dy * dy + dz * dz
-        if r2 >= rc2:
-            continue
-        r = np.sqrt(r2)
-        f = _pair_force(r - 2.0, table, lo, inv_dh, cap_drift, dt, uc)
-        vir += f * r
-        fr = f / r
-        force[i, 0] -= fr * dx
-        force[i, 1] -= fr * dy
-        force[i, 2] -= fr * dz
-        force[j, 0] += fr * dx
-        force[j, 1] += fr * dy
-        force[j, 2] += fr * dz
-    return vir
-
-
-@njit(cache=True)
-def _pair_forces(pos, box, params, pi, pj, flag, img, table, force):
-    """:func:`_dlvo_forces` of the flexible and tangential kernels, on the image counts of the list.
-
-    Same pairs, same order, same arithmetic (:func:`_shifted` is ``min_image`` bit for bit).
-    """
-    dt = params[P_DT]
-    rc2 = params[P_R_CUT] * params[P_R_CUT]
-    cap_drift = params[P_CAP_DRIFT]
-    lo = params[P_TAB_LO]
-    inv_dh = 1.0 / params[P_TAB_DH]
-    uc = params[P_LUB_RANGE]
-    vir = 0.0
-    for k in range(pi.shape[0]):
-        if flag[k]:
-            continue
-        i = pi[k]
-        j = pj[k]
-        dx = _shifted(pos[j, 0] - pos[i, 0], img[k, 0], box[0])
-        dy = _shifted(pos[j, 1] - pos[i, 1], img[k, 1], box[1])
-        dz = _shifted(pos[j, 2] - pos[i, 2], img[k, 2], box[2])
+        if rigid:
+            if _internal(pos, box, i, j, lab):
+                continue
+            dx = min_image(pos[j, 0] - pos[i, 0], box[0])
+            dy = min_image(pos[j, 1] - pos[i, 1], box[1])
+            dz = min_image(pos[j, 2] - pos[i, 2], box[2])
+        else:
+            dx = _shifted(pos[j, 0] - pos[i, 0], img[k, 0], box[0])
+            dy = _shifted(pos[j, 1] - pos[i, 1], img[k, 1], box[1])
+            dz = _shifted(pos[j, 2] - pos[i, 2], img[k, 2], box[2])
         r2 = dx * dx + dy * dy + dz * dz
         if r2 >= rc2:
             continue
@@ -838,7 +817,7 @@ def run(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rng, nst
             force[i, 0] = 0.0
             force[i, 1] = 0.0
             force[i, 2] = 0.0
-        vir = _pair_forces(pos, box, params, pi, pj, flag, img, table, force)
+        vir = _central_forces(pos, box, params, pi, pj, flag, img, table, force, _NO_LABELS, False)
         if ktrap != 0.0:
             _trap_forces(pos, box, ktrap, force)
         state[S_VIRIAL] += vir
@@ -1310,7 +1289,7 @@ def run_rigid(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rn
     half_skin2 = 0.25 * params[P_SKIN] * params[P_SKIN]
     ktrap = params[P_TRAP_K]
 
-    pi, pj, flag, _ = _build(pos, box, params, adj, deg, ncell)
+    pi, pj, flag, img = _build(pos, box, params, adj, deg, ncell)
     ref = pos.copy()
     force = np.zeros((n, 3), np.float64)
     for _step in range(nsteps):
@@ -1318,7 +1297,7 @@ def run_rigid(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rn
             force[i, 0] = 0.0
             force[i, 1] = 0.0
             force[i, 2] = 0.0
-        vir = _dlvo_forces(pos, box, params, pi, pj, flag, table, force, lab, True)
+        vir = _central_forces(pos, box, params, pi, pj, flag, img, table, force, lab, True)
         if ktrap != 0.0:
             _trap_forces(pos, box, ktrap, force)
         state[S_VIRIAL] += vir
@@ -1334,7 +1313,7 @@ def run_rigid(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rn
         istate[I_STEPS] += 1
         maxd2 = _max_displacement2(pos, ref, box, True)
         if maxd2 > half_skin2 and rc2 > 0.0:
-            pi, pj, flag, _ = _build(pos, box, params, adj, deg, ncell)
+            pi, pj, flag, img = _build(pos, box, params, adj, deg, ncell)
             for i in range(n):
                 for c in range(3):
                     ref[i, c] = pos[i, c]
@@ -1476,7 +1455,7 @@ def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncel
     """Advance ``nsteps`` steps of the flexible model with tangential bond springs (in place).
 
     Arguments as :func:`run`, plus ``anchors`` (B, 6) float64 (the two anchor unit
-    vectors of each bond row, see the comment above :func:`_dlvo_forces`; rows of new
+    vectors of each bond row, see the comment above :func:`_init_anchors`; rows of new
     bonds are set at capture) and ``orient`` (N, 3) float64, one body-fixed unit vector
     per sphere (rotated with it; diagnostics such as rotational diffusion).
 
@@ -1512,7 +1491,7 @@ def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncel
             for c in range(3):
                 force[i, c] = 0.0
                 torque[i, c] = 0.0
-        vir = _pair_forces(pos, box, params, pi, pj, flag, img, table, force)
+        vir = _central_forces(pos, box, params, pi, pj, flag, img, table, force, _NO_LABELS, False)
         if springs:
             _tangential_forces(pos, box, params, bonds, istate[I_NBONDS], anchors, force, torque)
         if ktrap != 0.0:
