@@ -353,3 +353,21 @@ def test_dynamic_gp_beside_the_static_one_from_the_records(tmp_path):
     md = (tmp_path / "out" / "heterogeneity" / "table2.md").read_text()
     assert "| G'p dynamic (MPa) |" in md and "3.5 ± 2.3 (2 of 3, 1 not converged)" in md
     assert data["fit"]["n_points"] == 5  # the static moduli of the rigid structures, as without the test
+
+
+def test_a_set_label_names_its_rows(tmp_path):
+    """``label`` of a [[sweep.set]] replaces the protocol's name in the report's labels (two BD sets with
+    different bond models stay apart), the seed's row is still found by kind and value."""
+    from polypack.studies.seed003_heterogeneity import _seed_row, set_label
+
+    d = _data()
+    d["sweep"]["set"][1]["label"] = "BD creeping"
+    _, entries, _ = sweep_plan(d)
+    assert [e.title for e in entries] == [None, None, "BD creeping", "BD creeping"]
+    folder = tmp_path / "f"
+    folder.mkdir()
+    (folder / "study.resolved.json").write_text(json.dumps({"study": {"protocol": {"kind": "brownian"}}}))
+    lab, kind, key, v = set_label(folder, "protocol.surface_potential", 0.014, "BD creeping")
+    assert (lab, kind, key, v) == ("BD creeping Ψ0 = 14 mV", "brownian", "surface_potential", 0.014)
+    assert _seed_row(kind, key, v)[1] == 0.472
+    assert set_label(folder, "protocol.surface_potential", 0.014)[0] == "Brownian Ψ0 = 14 mV"
