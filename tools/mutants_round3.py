@@ -58,6 +58,7 @@ T_RIG = T_S3 + ("tests/test_mechanics_rigidity.py",)
 T_REG = T_S3 + ("tests/test_registry.py", "tests/test_declarations.py", "tests/test_options.py")
 T_GEN = T_S3 + ("tests/test_declarations.py", "tests/test_registry.py")
 T_VEMR = ("tests/test_vem_restructure.py",)
+T_VEMA = ("tests/test_vem_adhesive.py",)
 T_FIG5 = ("tests/test_sweep.py::test_fig5_picks_the_brownian_set_when_there_is_one",
           "tests/test_sweep.py::test_fig5_gp_against_kn_of_the_most_and_least_heterogeneous",
           "tests/test_sweep.py::test_fig5_uses_the_studys_elastic_settings")
@@ -536,6 +537,23 @@ ROUND3 = [
            "                    _g_dyn_cell(r),\n",
            "                    \"–\",\n",
            T_SETS, "missing output (the dynamic G'p column of report.html always empty)"),
+    # ------------------------------------------------------------------ issue 32: VEM adhesive restructuring
+    Mutant("r3-32-adh-friction-ignored", S + "generate/vem.py",
+           "        p[K.P_MU] = mu\n",
+           "        p[K.P_MU] = 0.0\n",
+           T_VEMA, "option dropped (new contacts frictionless: they slide and the network folds too far)"),
+    Mutant("r3-32-adh-no-bonds", S + "generate/vem.py",
+           "bond = d <= (1.0 + ADHESION_BOND_GAP) * (self.radii[i] + self.radii[j])",
+           "bond = d < 0.0 * (self.radii[i] + self.radii[j])",
+           T_VEMA, "missing step (the VEM contacts not bonded: they slide and open)"),
+    Mutant("r3-32-adh-range-centre", S + "generate/vem.py",
+           "att = (~bonded) & (gap < self.rng)",
+           "att = (~bonded) & (d < self.rng)",
+           T_VEMA, "wrong quantity (centre distance instead of surface gap: no pair attracts)"),
+    Mutant("r3-32-adh-break-at-contact", S + "generate/vem.py",
+           "np.full(na, kap * (self.lever + self.rng))",
+           "np.full(na, kap * self.lever)",
+           T_VEMA, "wrong constant (the attraction breaks at touching: it pulls nothing closed)"),
     # ------------------------------------------------------------------ issue 32: reversible BD bonds (bond_escape)
     Mutant("r3-32-escape-no-r2", S + "generate/brownian.py",
            "outer = np.exp(v - v.max()) * inner / (2.0 * r * r)",

@@ -184,9 +184,10 @@ class VEMOptions:
     stiffness: str = option("contact", v.choice("contact", "particle"),
                             "meaning of the four stiffnesses: per contact, or per particle combined in series per "
                             "contact (k_a k_b / (k_a + k_b): PFC 4, seed 003 Table 1)", fill=False)
-    restructure: str = option("none", v.choice("none", "coagulation"),
-                              "after the voids go: none (the repulsive VEM) or coagulation of the structure by "
-                              "Brownian dynamics with DLVO forces (docs/vem.md)", fill=False)
+    restructure: str = option("none", v.choice("none", "coagulation", "adhesive"),
+                              "after the voids go: none (the repulsive VEM), coagulation of the structure by "
+                              "Brownian dynamics with DLVO forces, or adhesive (the VEM contacts bonded, a weak "
+                              "short-range attraction folds the floppy parts to equilibrium; docs/vem.md)", fill=False)
     restructure_time: float = option(1.0, v.positive, "coagulation: longest duration, in Brownian times a²/D0",
                                      unit="a²/D0", fill=False)
     restructure_window: float = option(0.25, v.positive, "coagulation: stops once the coordination changed by < 1 % "
@@ -196,6 +197,10 @@ class VEMOptions:
     restructure_bonds: str = option("tangential", v.choice("tangential", "flexible"),
                                     "coagulation: bond model (tangential: sliding and rolling resisted, rolling "
                                     "yields; flexible: free rolling)", fill=False)
+    restructure_friction: float = option(0.1, v.non_negative, "adhesive: Coulomb friction of the new (unbonded) "
+                                         "contacts", fill=False)
+    restructure_range: float = option(0.3, v.between(0.0, 2.0), "adhesive: surface gap within which structure "
+                                      "pairs attract, in units of the mean radius r0", unit="r0", fill=False)
 
 
 def run_vem(sizes, pr: dict, seed, monitor=None):

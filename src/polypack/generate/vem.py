@@ -64,7 +64,11 @@ Restructuring
     ``restructure = "coagulation"`` (default ``"none"``) lets the finished structure coagulate
     by Brownian dynamics with DLVO forces (:func:`_coagulate`; the experiment VEM mimics
     coagulates, §2.2 of 003_873b69fc71c74cf6.txt) until its bond coordination is stable;
-    measured against Table 2 in ``docs/vem.md``.
+    measured against Table 2 in ``docs/vem.md``.  ``restructure = "adhesive"`` bonds the
+    structure's contacts (PFC contact bonds at d < 1.01 (r_i + r_j), the seed's bond rule) and
+    lets a weak short-range attraction fold the floppy parts of the network to mechanical
+    equilibrium, new contacts adhesive with Coulomb friction (:class:`_Adhesive`): C ends near
+    4.6-4.8 at every void ratio (``docs/vem.md``).
 Finish
     Voids deleted; the residual structure overlaps (about 1 % of the diameter at the
     stop) are removed by projections (:func:`polypack._kernels.vem.separate`), the
@@ -118,9 +122,10 @@ UNLOADED = 1e-5
 #: touches is bonded for good, the bond carrying tension and shear).
 STRUCTURE_CONTACTS = ("frictionless", "sticky")
 
-#: Restructuring after the voids go: ``"none"`` (the repulsive VEM) or ``"coagulation"``
-#: (Brownian dynamics with DLVO forces from the VEM structure, :func:`_coagulate`).
-RESTRUCTURE = ("none", "coagulation")
+#: Restructuring after the voids go: ``"none"`` (the repulsive VEM), ``"coagulation"``
+#: (Brownian dynamics with DLVO forces from the VEM structure, :func:`_coagulate`) or
+#: ``"adhesive"`` (bonded VEM contacts, attraction-driven folding to equilibrium, :class:`_Adhesive`).
+RESTRUCTURE = ("none", "coagulation", "adhesive")
 #: Coagulation stop rule: the bond coordination changed by at most this fraction over
 #: ``restructure_window`` (the rule of :func:`polypack.brownian`, on a shorter window).
 RESTRUCTURE_TOLERANCE = 0.01
@@ -442,6 +447,196 @@ def _coagulate(wpos, r_red, box, o, seed):
     return sim.positions / scale, rec
 
 
+#: ``restructure = "adhesive"``: attraction per unbonded structure pair within ``restructure_range``,
+#: in units of kn r0 (reduced units).  Small, so that a rigid bonded network deforms by about this
+#: strain only; its value then drops out (the floppy parts move along zero-stiffness modes whatever
+#: the size of the force; measured: 1e-3 and 1e-4 give the same C and a).
+ADHESION_FORCE = 1e-3
+#: ``restructure = "adhesive"``: relative gap within which the VEM's structure pairs are bonded at the
+#: start (the seed's bond rule, d < (1 + ε) 2 r0 with ε = 0.01, §2.2 of 003_873b69fc71c74cf6.txt).
+ADHESION_BOND_GAP = 0.01
+#: ``restructure = "adhesive"``: stop when PFC's unbalanced-force ratio is below this (the forces are
+#: weak, so ten times below the per-stage value of the expansion).
+ADHESION_RATIO = 1e-3
+#: ``restructure = "adhesive"``: DEM steps between two checks, and the step budget.
+ADHESION_CHECK = 100
+ADHESION_MAX_STEPS = 1_000_000
+
+
+class _Adhesive:
+    """Rigidity-limited restructuring of a hard structure (``restructure = "adhesive"``).
+
+    Structure spheres only, reduced units (mean radius 1, structure kn = 1, mass 1), the DEM engine of
+    :mod:`polypack._kernels.dem` (local damping, Eq. (3) of 003_873b69fc71c74cf6.txt).  Per structure
+    pair in the neighbour list one *main* contact entry:
+
+    * pairs closer than ``(1 + ADHESION_BOND_GAP)(r_i + r_j)`` at the start carry a PFC contact bond
+      (normal and shear springs, no moment: the bonded spheres roll freely), installed at its
+      distance (no initial force), unbreakable: the VEM network as the seed's bonds hold it;
+    * every other pair is a linear contact (kn, ks) with Coulomb friction ``mu``: new contacts slide.
+
+    and, for every unbonded pair with a gap below ``rng`` (r0) at the last neighbour rebuild, a
+    second, *attraction* entry: a central spring of stiffness ``f_a / L`` about the length
+    ``r_i + r_j - L`` (L = 1: a nearly constant pull ``f_a (1 + gap / L)``), which breaks at the gap
+    ``rng``.  The attraction makes the floppy parts of the network fold until every sphere is held;
+    the rigid parts deform by about ``f_a`` only.  New contacts are adhesive (the attraction holds them
+    closed) and frictional.
+    """
+
+    def __init__(self, pos, radii, box, ks, mu, rng, damping):
+        from .._kernels import dem as K
+
+        self.K = K
+        n = pos.shape[0]
+        self.n = n
+        self.pos = np.ascontiguousarray(pos, dtype=np.float64)
+        self.radii = np.ascontiguousarray(radii, dtype=np.float64)
+        self.box = np.asarray(box, dtype=np.float64)
+        self.h0 = np.diag(self.box)
+        self.mass = np.ones(n)
+        self.inertia = 0.4 * self.radii**2
+        self.vel = np.zeros((n, 3))
+        self.omg = np.zeros((n, 3))
+        self.kind = np.zeros(n, np.int64)
+        self.ks, self.rng, self.lever = float(ks), float(rng), 1.0
+        self.skin = max(0.2, self.rng + 0.1)
+        self.st = np.zeros(K.N_ST)
+        p = np.zeros(K.N_P)
+        p[K.P_DT] = 0.2 / math.sqrt(max(1.0, ks))
+        p[K.P_OMEGA] = 1.0
+        p[K.P_RAMP] = 1.0
+        p[K.P_ALPHA] = damping
+        p[K.P_MU] = mu
+        p[K.P_VOLUME] = float(np.prod(self.box))
+        p[K.P_LENGTH] = self.box[2]
+        p[K.P_AXIS_A] = 0
+        p[K.P_AXIS_G] = 2
+        p[K.P_MODE] = K.MODE_LEES_EDWARDS  # damped dynamics, no drive (zero amplitude)
+        p[K.P_SKIN] = 0.5 * self.skin
+        self.p = p
+        self.samples = np.zeros((1, K.N_S))
+        self._no_edges = np.zeros(0)
+        self._no_layers = np.zeros((1, 0))
+        self.rebuilds = 0
+        self.keys = np.zeros(0, np.int64)
+        self.cfs = np.zeros((0, 3))
+        i, j, shift, d, keys = self._pairs()
+        bond = d <= (1.0 + ADHESION_BOND_GAP) * (self.radii[i] + self.radii[j])
+        self.bond_keys = keys[bond]  # sorted (keys come sorted)
+        self.bond_rest = np.maximum(d[bond], self.radii[i[bond]] + self.radii[j[bond]])
+        self.build()
+
+    def _pairs(self):
+        """Pairs within the list's reach: ``(i, j, shift, distance, key)``, sorted by key, i < j."""
+        from .._kernels.cells import pairs_within
+        from ..neighbors import choose_cells
+
+        pos, box = self.pos, self.box
+        k = np.floor(pos / box)
+        w = np.clip(pos - k * box, 0.0, np.nextafter(box, 0))
+        ncell = np.asarray(choose_cells(box, self.n, 2.0 * float(self.radii.min()) + self.skin), np.int64)
+        pi, pj, _ = pairs_within(w, self.radii, box, 1.0, self.skin, ncell)
+        sw = pi > pj
+        i = np.where(sw, pj, pi).astype(np.int64)
+        j = np.where(sw, pi, pj).astype(np.int64)
+        shift = -np.round((w[j] - w[i]) / box) - k[j] + k[i]
+        b = pos[j] + shift * box - pos[i]
+        d = np.sqrt(np.einsum("ij,ij->i", b, b))
+        s = np.clip(shift.astype(np.int64) + 8, 0, 16)
+        keys = ((i * self.n + j) * 17 + s[:, 0]) * 289 + s[:, 1] * 17 + s[:, 2]
+        o = np.argsort(keys, kind="stable")
+        return i[o], j[o], shift[o], d[o], keys[o]
+
+    def build(self):
+        """Contact arrays from a fresh pair list (shear histories carried over by pair key)."""
+        from .._kernels.contacts import BONDED, CONTACT
+
+        i, j, shift, d, keys = self._pairs()
+        m = i.size
+        at = np.searchsorted(self.bond_keys, keys)
+        at = np.minimum(at, max(self.bond_keys.size - 1, 0))
+        bonded = (self.bond_keys[at] == keys) if self.bond_keys.size else np.zeros(m, bool)
+        rest = np.where(bonded, self.bond_rest[at] if self.bond_keys.size else 0.0, self.radii[i] + self.radii[j])
+        cfs = np.zeros((m, 3))
+        if self.keys.size and m:
+            old = np.minimum(np.searchsorted(self.keys, keys), self.keys.size - 1)
+            hit = self.keys[old] == keys
+            cfs[hit] = self.cfs[old[hit]]
+        gap = d - self.radii[i] - self.radii[j]
+        att = (~bonded) & (gap < self.rng)
+        na = int(np.count_nonzero(att))
+        kap = ADHESION_FORCE / self.lever
+        self.nmain = m
+        self.keys = keys
+        self.ci = np.ascontiguousarray(np.concatenate([i, i[att]]))
+        self.cj = np.ascontiguousarray(np.concatenate([j, j[att]]))
+        self.cshift = np.ascontiguousarray(np.concatenate([shift, shift[att]]), dtype=np.float64)
+        self.ckn = np.concatenate([np.ones(m), np.full(na, kap)])
+        self.cks = np.concatenate([np.full(m, self.ks), np.zeros(na)])
+        self.crest = np.concatenate([rest, self.radii[i[att]] + self.radii[j[att]] - self.lever])
+        self.cfnb = np.concatenate([np.full(m, np.inf), np.full(na, kap * (self.lever + self.rng))])
+        self.cfsb = np.full(m + na, np.inf)
+        self.cstate = np.concatenate([np.where(bonded, BONDED, CONTACT), np.full(na, BONDED)]).astype(np.int64)
+        self.cfs = np.ascontiguousarray(np.concatenate([cfs, np.zeros((na, 3))]))
+        self.cfn = np.zeros(m + na)
+        self.xbuild = self.pos.copy()
+        self.rebuilds += 1
+
+    def _run(self, steps, sample):
+        K = self.K
+        done = 0
+        self.p[K.P_SAMPLE_EVERY] = 1 if sample else 0
+        while done < steps:
+            status, k, _ = K.run(steps - done, self.pos, self.vel, self.omg, self.radii, self.mass, self.inertia,
+                                 self.kind, self.pos, self.h0, self.ci, self.cj, self.cshift, self.ckn, self.cks,
+                                 self.crest, self.cfnb, self.cfsb, self.cstate, self.cfs, self.cfn, self.p,
+                                 self.st, self.samples, 0, self.xbuild, self._no_edges, self._no_layers)
+            done += k
+            if status == K.STATUS_REBUILD:
+                self.cfs = self.cfs[: self.nmain]
+                self.build()
+        self.p[K.P_SAMPLE_EVERY] = 0
+
+    def relax(self):
+        """Damped dynamics until PFC's unbalanced-force ratio is below :data:`ADHESION_RATIO`;
+        returns ``(steps, ratio, reason)``."""
+        from .. import _interrupt
+
+        K = self.K
+        steps, ratio = 0, math.inf
+        reason = f"step budget {ADHESION_MAX_STEPS} used up"
+        while steps < ADHESION_MAX_STEPS:
+            _interrupt.check("vem interrupted in the adhesive restructuring")
+            self._run(ADHESION_CHECK - 1, False)
+            self._run(1, True)
+            steps += ADHESION_CHECK
+            fu = self.samples[0, K.S_UNBALANCED] * self.n
+            fc = self.samples[0, K.S_CONTACT_FORCE] * max(int(np.count_nonzero(self.cfn)), 1)
+            ratio = fu / (2.0 * fc) if fc > 0 else 0.0
+            if ratio < ADHESION_RATIO:
+                reason = f"equilibrium: unbalanced-force ratio {ratio:.3g} < {ADHESION_RATIO:g}"
+                break
+        return steps, ratio, reason
+
+
+def _adhere(wpos, red, box, o):
+    """``restructure = "adhesive"``: :class:`_Adhesive` from the hard VEM structure ``wpos`` (reduced
+    units) to mechanical equilibrium.  Returns ``(positions, record)``."""
+    ks = o["shear_stiffness"] / o["normal_stiffness"]  # the same ratio per contact or per particle
+    t0 = time.process_time()
+    sim = _Adhesive(wpos, red, box, ks, o["restructure_friction"], o["restructure_range"], o["damping"])
+    bonds0 = 2.0 * sim.bond_keys.size / red.size
+    steps, ratio, reason = sim.relax()
+    m = sim.nmain
+    b = sim.pos[sim.cj[:m]] + sim.cshift[:m] * box - sim.pos[sim.ci[:m]]
+    touching = np.sqrt(np.einsum("ij,ij->i", b, b)) <= (1.0 + ADHESION_BOND_GAP) * (red[sim.ci[:m]] + red[sim.cj[:m]])
+    rec = {"steps": int(steps), "ratio": float(ratio), "stop_reason": reason, "bond_coordination": float(bonds0),
+           "coordination": float(2.0 * np.count_nonzero(touching) / red.size), "friction": o["restructure_friction"],
+           "range": o["restructure_range"], "adhesion_force": ADHESION_FORCE, "neighbour_rebuilds": int(sim.rebuilds),
+           "cpu_time": time.process_time() - t0}
+    return sim.pos, rec
+
+
 def _initial_structure(radii, box, seed):
     """A hard-sphere fluid of the structure spheres at Φ (Lubachevsky-Stillinger growth)."""
     from .lubachevsky import pack
@@ -504,6 +699,8 @@ def vem(
     restructure_window=VEM_DEFAULTS["restructure_window"],
     restructure_potential=VEM_DEFAULTS["restructure_potential"],
     restructure_bonds=VEM_DEFAULTS["restructure_bonds"],
+    restructure_friction=VEM_DEFAULTS["restructure_friction"],
+    restructure_range=VEM_DEFAULTS["restructure_range"],
     progress=None,
 ) -> Packing:
     """Heterogeneous pack by the void expansion method (VEM).
@@ -568,9 +765,10 @@ def vem(
         per contact, ``k = k_1 k_2 / (k_1 + k_2)`` (the PFC 4 linear model of the seed,
         Table 1 of 003_873b69fc71c74cf6.txt): structure-structure ``kn / 2``,
         structure-void ``kn kn,V / (kn + kn,V)``, void-void ``kn,V / 2`` (shear alike).
-    restructure : {"none", "coagulation"}
+    restructure : {"none", "coagulation", "adhesive"}
         After the voids are deleted and the overlaps removed: ``"none"`` (default, the
-        repulsive VEM) or ``"coagulation"``: the structure coagulates by the Brownian
+        repulsive VEM), ``"adhesive"`` (below, ``restructure_friction``) or
+        ``"coagulation"``: the structure coagulates by the Brownian
         dynamics of :class:`polypack.generate.brownian.BrownianSimulation` (DLVO forces of
         :mod:`polypack.generate.dlvo` at the seed's scale r0 = 0.25 µm, surface potential
         ``restructure_potential``, bond model ``restructure_bonds``) until the bond
@@ -587,6 +785,15 @@ def vem(
         (default; bonds resist sliding and rolling, rolling yields at a critical moment)
         or ``"flexible"`` (central bonds, free rolling: the structure keeps densifying, so
         the run lasts ``restructure_time``).
+    restructure_friction, restructure_range : float
+        ``restructure = "adhesive"`` (:class:`_Adhesive`): the structure pairs closer than
+        ``1.01 (r_i + r_j)`` (the seed's bond rule, §2.2 of 003_873b69fc71c74cf6.txt) get PFC
+        contact bonds (normal and shear springs ``kn``, ``ks``, no moment, unbreakable); every
+        other pair with a surface gap below ``restructure_range`` (units of r0; default 0.3)
+        attracts weakly (1e-3 kn r0), and new contacts are linear with Coulomb friction
+        ``restructure_friction`` (default 0.1).  Damped DEM (Eq. (3) of
+        003_873b69fc71c74cf6.txt) until PFC's unbalanced-force ratio is below 1e-3: the floppy
+        parts of the network fold until every sphere is held, the rigid parts stay.  Any sizes.
     progress : bool, optional
         Progress bar (void diameter, coordination, unbalanced-force ratio); default when
         stderr is a terminal.
@@ -627,7 +834,8 @@ def vem(
         stage_steps=stage_steps, max_stages=max_stages, final_relaxation=final_relaxation,
         structure_contacts=structure_contacts, stiffness=stiffness, restructure=restructure,
         restructure_time=restructure_time, restructure_window=restructure_window,
-        restructure_potential=restructure_potential, restructure_bonds=restructure_bonds))
+        restructure_potential=restructure_potential, restructure_bonds=restructure_bonds,
+        restructure_friction=restructure_friction, restructure_range=restructure_range))
     _check_restructure(o, radii)
     n_void = int(round(o["void_ratio"] * ns))
     if n_void < 1:
@@ -668,7 +876,11 @@ def vem(
         "wall_time": wall,
         "series": series,
     }
-    if fin["coag"] is not None:  # the scalars also at the top level: a study's record keeps those of meta["vem"]
+    if fin["coag"] is not None and o["restructure"] == "adhesive":
+        run["adhesive_steps"] = fin["coag"]["steps"]
+        run["adhesive_stop_reason"] = fin["coag"]["stop_reason"]
+        run["restructure_record"] = fin["coag"]
+    elif fin["coag"] is not None:  # the scalars also at the top level: a study's record keeps those of meta["vem"]
         coag = fin["coag"]
         run["coagulation_time"] = coag["time"]
         run["coagulation_bond_coordination"] = coag["bond_coordination"]
@@ -687,13 +899,15 @@ def vem(
 
 # ---------------------------------------------------------------- vem: the steps
 def _check_restructure(o, radii):
-    """The restructuring options are used only with ``restructure='coagulation'``, which needs
-    equal spheres."""
-    if o["restructure"] == "none":
-        for key in ("restructure_time", "restructure_window", "restructure_potential", "restructure_bonds"):
-            if o[key] != VEM_DEFAULTS[key]:
-                raise InvalidInputError(f"{key}={o[key]!r}: only used with restructure = 'coagulation'")
-    elif not np.all(radii == radii[0]):
+    """Each restructuring's options are used only with it (``restructure='coagulation'`` or
+    ``'adhesive'``); the coagulation needs equal spheres."""
+    for key in ("restructure_time", "restructure_window", "restructure_potential", "restructure_bonds"):
+        if o["restructure"] != "coagulation" and o[key] != VEM_DEFAULTS[key]:
+            raise InvalidInputError(f"{key}={o[key]!r}: only used with restructure = 'coagulation'")
+    for key in ("restructure_friction", "restructure_range"):
+        if o["restructure"] != "adhesive" and o[key] != VEM_DEFAULTS[key]:
+            raise InvalidInputError(f"{key}={o[key]!r}: only used with restructure = 'adhesive'")
+    if o["restructure"] == "coagulation" and not np.all(radii == radii[0]):
         raise InvalidInputError(f"restructure='coagulation': needs equal spheres (the Brownian engine is "
                                 f"monodisperse); radii range {radii.min():g} ... {radii.max():g}")
 
@@ -800,5 +1014,10 @@ def _finish_structure(asm, red, box, ns, skin, o, final_relaxation, ss):
         _interrupt.check("vem interrupted in the coagulation")
         wpos, status, s2, _ = _separate(wpos, red, box, ns, skin)
         sweeps += s2
+    elif o["restructure"] == "adhesive":
+        wpos, coag = _adhere(wpos, red, box, o)
+        _interrupt.check("vem interrupted in the adhesive restructuring")
+        wpos, status, s3, _ = _separate(wpos, red, box, ns, skin)
+        sweeps += s3
     return dict(wpos=wpos, status=status, done=V.SEPARATE_DONE, sweeps=sweeps, worst=worst, coag=coag,
                 void_diameter=void_diameter, n_bonds_jam=n_bonds_jam, fsteps=fsteps, fratio=fratio)
