@@ -365,7 +365,8 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
     for r in rows:
         s = _seed_row(r["kind"], r["parameter"], r["value"])
         sa = f"{s[1]:.3f} | {s[2]:.2f} | {s[3]:.2f} ± {s[4]:.2f}" if s else "– | – | –"
-        lines.append(f"| {r['set']} | {r['value']} | {r['realizations']} | {r['a']:.3f} ± {r['a_se']:.3f} | "
+        a_cell = f"{r['a']:.3f} ± {r['a_se']:.3f}" if math.isfinite(r["a_se"]) else f"{r['a']:.3f}"  # P = 1: no SE
+        lines.append(f"| {r['set']} | {r['value']} | {r['realizations']} | {a_cell} | "
                      f"{r['b']:.3f} | {r['C']:.2f} | {_g_cell(r)} | {_g_dyn_cell(r)} | {sa} |")
     lines.append("")
     lines.append(f"G'p source: {', '.join(sorted(sources))}; bonds at epsilon = {elastic['epsilon']:g}, "
