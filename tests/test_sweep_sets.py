@@ -118,6 +118,13 @@ def test_sets_are_ordinary_studies_with_their_own_protocol():
     _, entries, _ = sweep_plan(d)
     assert entries[0].study.data["protocol"]["restructure"] == "coagulation"
     assert entries[0].study.data["protocol"]["growth_factor"] == 1.05
+    # a study that has its own [analysis.shear] (every value): kept, [sweep.shear] on top for the dynamic ones
+    d = _data()
+    d["analysis"]["shear"] = {"amplitude": 5e-4, "cycles": 7}
+    _, entries, _ = sweep_plan(d)
+    sh = entries[0].study.data["analysis"]["shear"]
+    assert (sh["amplitude"], sh["cycles"], sh["bonds"]) == (5e-4, 3, "distance")
+    assert entries[1].study.data["analysis"]["shear"]["cycles"] == 7
     # the old form (one parameter, no sets) keeps its folders and its dynamic choice
     d = _data()
     del d["sweep"]["set"]

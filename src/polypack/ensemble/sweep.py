@@ -310,12 +310,16 @@ def _check_set(i, s, data):
 
 def _shear_table(d, shear):
     """[analysis.shear] of a dynamic value: the bond options the study's [analysis.elastic] states
-    (the same network as the static G'p), then ``[sweep.shear]``."""
+    (the same network as the static G'p), then the study's own [analysis.shear] if it has one, then
+    ``[sweep.shear]``."""
     from .. import registry
 
     specs = registry.stages()["shear"].specs()
-    el = d.get("analysis", {}).get("elastic", {}) if isinstance(d.get("analysis"), dict) else {}
+    ana = d.get("analysis", {}) if isinstance(d.get("analysis"), dict) else {}
+    el = ana.get("elastic", {})
     table = {k: copy.deepcopy(v) for k, v in (el.items() if isinstance(el, dict) else ()) if k in specs}
+    if isinstance(ana.get("shear"), dict):
+        table.update(copy.deepcopy(ana["shear"]))
     table.update(copy.deepcopy(shear))
     return table
 
