@@ -449,8 +449,10 @@ def _coagulate(wpos, r_red, box, o, seed):
 
 #: ``restructure = "adhesive"``: attraction per unbonded structure pair within ``restructure_range``,
 #: in units of kn r0 (reduced units).  Small, so that a rigid bonded network deforms by about this
-#: strain only; its value then drops out (the floppy parts move along zero-stiffness modes whatever
-#: the size of the force; measured: 1e-3 and 1e-4 give the same C and a).
+#: strain only; but it sets how fast the floppy parts fold (with inertia: a sphere meets a new contact
+#: with an overlap of about sqrt(2 f_a h / kn)), and faster folding makes more contacts (N = 1000:
+#: C lower by 0.1-0.15 at 1e-4, 0.15-0.25 at 1e-5; docs/vem.md), so it is calibrated with the
+#: friction and the range.
 ADHESION_FORCE = 1e-3
 #: ``restructure = "adhesive"``: relative gap within which the VEM's structure pairs are bonded at the
 #: start (the seed's bond rule, d < (1 + ε) 2 r0 with ε = 0.01, §2.2 of 003_873b69fc71c74cf6.txt).
