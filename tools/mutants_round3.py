@@ -85,6 +85,10 @@ ROUND3 = [
            "                    lev[i] = level[orig[i]]\n",
            "                    lev[i] = level[i]\n",
            T_EDMD, "wrong permutation (size levels in the caller's numbering: wrong grid of a shell)"),
+    Mutant("r3-33-cell-gap-far-side", K + "edmd.py",
+           "        gap = k * w - y\n",
+           "        gap = (k + 1) * w - y\n",
+           T_EDMD, "wrong bound (a cell's far side: cells with partners skipped in a local rebuild)"),
     # ============================================================== issue 32: Brownian-dynamics speed (bd.py)
     Mutant("r3-32-near-restart", K + "bd.py",
            "                    q = k + 1\n",

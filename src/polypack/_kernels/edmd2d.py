@@ -273,7 +273,7 @@ def run_chunk(x, v, g, box, state, params, hist):
     since_sync = 0
     off = np.zeros(n + 1, np.int64)
     nn = np.zeros(n, np.int64)
-    nbr = np.zeros(0, np.int64)
+    nbr = np.zeros(0, np.int32)
     pad = 8
     rho_cap = 0.249 * min(box[0], box[1])
     rho_max_lv = np.zeros(nlev)
