@@ -245,15 +245,20 @@ def test_two_sets_run_end_to_end_through_the_cli(tmp_path):
     assert re.search(r"^\| VEM N_V/N = 0.25 \| 0.25 \|.*\| 0.521 \| 4.71 \| 1.83 ± 0.14 \|$", md, re.M)
     assert re.search(r"^\| Brownian Ψ0 = 0 mV \| 0.0 \|.*\| 0.373 \| 4.52 \| 0.48 ± 0.05 \|$", md, re.M)
     assert re.search(r"^\| Brownian Ψ0 = 12 mV \| 0.012 \|.*\| 0.404 \| 4.84 \| 1.19 ± 0.14 \|$", md, re.M)
-    # the dynamic G'p: the values that had the shear test, the mean of their records' storage moduli
+    # the dynamic G'p: the values that had the shear test, on their first realization only (default
+    # dynamic_realizations = 1): that structure's storage moduli, its static G'p beside
     for r, sub in zip(data["rows"], subs):
         recs = _records(out / sub)
         has = ["shear" in q["analysis"] for q in recs]
-        assert all(has) == (sub in (subs[0], subs[2])) and any(has) == all(has)
-        if all(has):
-            g = [np.mean([d["storage_modulus"] for d in q["analysis"]["shear"]["direction"].values()]) for q in recs]
-            assert r["dynamic"] == 2 and r["G_dyn_MPa"] == pytest.approx(1e-6 * np.mean(g), rel=1e-12)
+        assert has == [sub in (subs[0], subs[2]), False]
+        if any(has):
+            q = recs[0]
+            g = np.mean([d["storage_modulus"] for d in q["analysis"]["shear"]["direction"].values()])
+            assert r["dynamic"] == 1 and r["G_dyn_MPa"] == pytest.approx(1e-6 * g, rel=1e-12)
             assert r["G_dyn_MPa"] > 0
+            p0 = [p for p in data["points"] if p["set"] == r["set"] and p["index"] == 0][0]
+            assert r["G_dyn_static_MPa"] == pytest.approx(1e-6 * p0["G_Pa"], rel=1e-12)
+            assert f"(1 of 2; static G'p of the same {r['G_dyn_static_MPa']:.3g})" in md
         else:
             assert r["dynamic"] == 0 and r["G_dyn_MPa"] is None
     # the joint fit: every rigid structure of both sets, and only those (an independent refit from the records)
@@ -378,3 +383,70 @@ def test_a_set_label_names_its_rows(tmp_path):
     assert (lab, kind, key, v) == ("BD creeping Ψ0 = 14 mV", "brownian", "surface_potential", 0.014)
     assert _seed_row(kind, key, v)[1] == 0.472
     assert set_label(folder, "protocol.surface_potential", 0.014)[0] == "Brownian Ψ0 = 14 mV"
+
+
+def test_dynamic_realizations_chooses_the_structures_that_get_the_shear_test():
+    """``dynamic_realizations`` (``[sweep]``, overridden per set): the dynamic values' [analysis.shear]
+    runs on realizations 0 .. n-1 only (default 1, issue 32: one structure per value); ``"all"`` on every
+    one; a bad value is one line naming the key path and what is allowed."""
+    sw, entries, _ = sweep_plan(_data())
+    assert [s["dynamic_realizations"] for s in sw["sets"]] == [1, 1]
+    dyn = [e for e in entries if e.dynamic]
+    assert [e.study.data["analysis"]["shear"]["realizations"] for e in dyn] == [1, 1]
+    d = _data()
+    d["sweep"]["dynamic_realizations"] = "all"
+    d["sweep"]["set"][1]["dynamic_realizations"] = 2
+    sw, entries, _ = sweep_plan(d)
+    assert [s["dynamic_realizations"] for s in sw["sets"]] == [None, 2]
+    sh = [e.study.data["analysis"]["shear"] for e in entries if e.dynamic]
+    assert "realizations" not in sh[0] and sh[1]["realizations"] == 2
+    # the study's own [analysis.shear] of the values that are not dynamic stays as written
+    d = _data()
+    d["analysis"]["shear"] = {"cycles": 7, "realizations": 2}
+    _, entries, _ = sweep_plan(d)
+    assert [e.study.data["analysis"]["shear"]["realizations"] for e in entries] == [1, 2, 1, 2]
+    for where, bad in (("sweep", 0), ("sweep", -1), ("sweep", True), ("sweep", "some"), ("sweep", 1.5),
+                       ('sweep.set "bd"', 0)):
+        d = _data()
+        (d["sweep"] if where == "sweep" else d["sweep"]["set"][1])["dynamic_realizations"] = bad
+        with pytest.raises(InvalidInputError, match=rf'^{re.escape(where)}.dynamic_realizations = '
+                                                    rf'{re.escape(repr(bad))}: give an integer >= 1') as info:
+            sweep_plan(d)
+        assert "\n" not in str(info.value)
+    d = _data()
+    d["sweep"]["shear"]["realizations"] = 2
+    with pytest.raises(InvalidInputError, match=r"^sweep.shear.realizations = 2: give sweep.dynamic_realizations"):
+        sweep_plan(d)
+
+
+def test_an_analysis_limited_to_the_first_realizations_leaves_the_others_alone():
+    """``[analysis.shear] realizations = 1``: realization 0 gets the shear record, realization 1 none, and
+    realization 1's other analyses are bit for bit those of the same study without the limit (child seeds
+    spawned over every table); the ensemble files average the shear over the realization that has it."""
+    from polypack.ensemble.runner import ensemble_curves, ensemble_scalars
+    from polypack.ensemble.stages import child_seed_records, realize
+    from polypack.study import load_study
+
+    d = _data()
+    d.pop("sweep")
+    d["protocol"]["void_ratio"] = 0.25
+    d["analysis"] = {"contacts": {"tolerance": 0.01},
+                     "shear": {"bonds": "distance", "epsilon": 0.01, "stiffness": "particle", "cycles": 2,
+                               "steps_per_cycle": 200, "samples_per_cycle": 10, "directions": [[2, 0]],
+                               "realizations": 1}}
+    limited = load_study(d)
+    seeds = child_seed_records(limited.seed, 2)
+    _, r0 = realize(limited.data, 0, seeds[0])
+    _, r1 = realize(limited.data, 1, seeds[1])
+    assert "shear" in r0["analysis"] and "shear" not in r1["analysis"]
+    assert not any(k.startswith("shear.") for k in r1["scalars"])
+    d["analysis"]["shear"]["realizations"] = 2
+    _, full1 = realize(load_study(d).data, 1, seeds[1])
+    assert "shear" in full1["analysis"]
+    assert full1["analysis"]["contacts"] == r1["analysis"]["contacts"]
+    assert full1["n"] == r1["n"] and full1["volume_fraction"] == r1["volume_fraction"]
+    files = {"files": {"gsd": {"path": "x.gsd", "sha256": ""}}}
+    sc = ensemble_scalars([dict(r0, **files), dict(r1, **files)])
+    assert not any(k.startswith("shear.") for k in sc)  # in one record only: not averaged as if in both
+    assert sc["volume_fraction"]["n"] == 2
+    ensemble_curves([r0, r1])  # a record without the analysis is skipped, not an error

@@ -99,7 +99,10 @@ def _run_sweep(study, out, workers, scheduler, dask, check, force, wait, progres
         else:
             typer.echo(f"# {study}: valid sweep of {len(sw['sets'])} sets, {len(plan)} values in all")
             for s in sw["sets"]:
-                dyn = f"; dynamic G'p at {', '.join(repr(v) for v in s['dynamic'])}" if s["dynamic"] else ""
+                nd = s.get("dynamic_realizations")
+                on = "every realization" if nd is None else "realization 0" if nd == 1 else f"realizations 0..{nd - 1}"
+                dyn = (f"; dynamic G'p at {', '.join(repr(v) for v in s['dynamic'])} ({on})"
+                       if s["dynamic"] else "")
                 typer.echo(f"#   {s['name']}: {s['parameter']} = {', '.join(repr(v) for v in s['values'])}{dyn}")
         return
     if scheduler and dask:

@@ -503,6 +503,8 @@ def ensemble_curves(records) -> dict:
         per = []
         for r in records:
             d = r["analysis"].get(name)
+            if d is None:  # an analysis run on some realizations only ([analysis.shear] realizations)
+                continue
             ds = d if isinstance(d, list) else [d]
             per.append(ds)
         spec = _curves_spec(name)

@@ -237,21 +237,32 @@ def _as_dict(est):
     return est if isinstance(est, dict) else est.to_dict()
 
 
-def run_analyses(packing, analyses: dict, seed) -> dict:
+def run_analyses(packing, analyses: dict, seed, index=None) -> dict:
     """``{name: result dict}`` for every ``[analysis.*]`` table (§2 of 000_2cedc098acbd866b.txt).
 
     Each registered analysis runs with its own child seed; one that returns several
-    estimators (window histograms with several radii) gives a list of dicts.
+    estimators (window histograms with several radii) gives a list of dicts.  An analysis
+    whose table states ``realizations = N`` (``[analysis.shear]``, issue 32) runs only on
+    realizations ``index < N``; the others leave it out.  The child seeds are spawned over
+    every table either way, so the other analyses' results do not depend on it.
     """
     out = {}
     seeds = dict(zip(sorted(analyses), seed.spawn(len(analyses))))
     from .. import _interrupt
 
     for name in sorted(analyses):
+        if index is not None and _skips(analyses[name], index):
+            continue
         _interrupt.check(f"interrupted before analysis {name}")
         est = registry.get("analysis", name, path="analysis").load()(packing, analyses[name], seeds[name])
         out[name] = [_as_dict(e) for e in est] if isinstance(est, list) else _as_dict(est)
     return out
+
+
+def _skips(table, index) -> bool:
+    """True if an analysis table limited to its first ``realizations`` leaves realization ``index`` out."""
+    lim = table.get("realizations") if isinstance(table, dict) else None
+    return isinstance(lim, int) and not isinstance(lim, bool) and index >= lim
 
 
 # --------------------------------------------------------------------------- scalars
@@ -394,7 +405,7 @@ def realize(study_data: dict, index: int, seed_rec: dict):
         if packing.meta.get("status") == "interrupted" or (packing.meta.get("shake") or {}).get("interrupted"):
             raise KeyboardInterrupt  # never record a partial pack
         _interrupt.check(f"realization {index} interrupted after its packing")
-        analyses = run_analyses(packing, study_data.get("analysis", {}), s_ana)
+        analyses = run_analyses(packing, study_data.get("analysis", {}), s_ana, index)
     report = getattr(sizes, "report", {}) or {}
     psd_scalars = {k: _jsonable(v) for k, v in report.items() if _jsonable(v) is not None}
     record = {

@@ -11,7 +11,8 @@ A study file with a ``[sweep]`` table runs once per value of one parameter
     modulus = "elastic"                    # G'p: static tensor (default) or "shear" (DEM G')
     fig5_kn = [25, 50, 100, 200, 400]      # kn (N/m) of Fig. 5 (G'p of the most/least heterogeneous
                                            # structure against kn); [] for none
-    dynamic = [0.5]                        # values that also get the oscillatory shear test
+    dynamic = [0.5]                        # values that also get the oscillatory shear test ...
+    dynamic_realizations = 1               # ... on their first realization only (default; "all": every one)
     [sweep.shear]                          # its options (default: the bond options of [analysis.elastic])
 
 Every value is an ordinary study (same seed: common random numbers across values),
@@ -27,6 +28,7 @@ resumes each.
     parameter = "protocol.void_ratio"
     values = [0.125, 0.25, 0.5, 1.0, 1.625, 2.0]
     dynamic = [0.125]                      # values of this set that also get [analysis.shear]
+    dynamic_realizations = 1               # on how many of their realizations (default: [sweep]'s, 1)
     [sweep.set.protocol]                   # merged over [protocol]; another kind replaces it
     kind = "vem"
 
@@ -66,9 +68,9 @@ from ..studies.seed003_heterogeneity import ELASTIC_DEFAULTS as _ELASTIC_DEFAULT
 from ..studies.seed003_heterogeneity import SEED_TABLE2, heterogeneity_report, set_label  # noqa: E402,F401
 
 _SWEEP_KEYS = {"parameter", "values", "report", "include", "elastic", "modulus", "fig5_kn", "dynamic", "shear",
-               "set"}
+               "set", "dynamic_realizations"}
 #: keys of one ``[[sweep.set]]`` table; the section keys are merged over the study's sections
-_SET_KEYS = ("name", "label", "parameter", "values", "dynamic")
+_SET_KEYS = ("name", "label", "parameter", "values", "dynamic", "dynamic_realizations")
 _SET_SECTIONS = ("study", "psd", "protocol", "analysis")
 #: folder names a set may not take (the report's folder and the run folder's own entries)
 _RESERVED = ("heterogeneity", "realizations", "ensemble", "figures")
@@ -137,6 +139,19 @@ def _check_dynamic(dyn, vals, where="sweep"):
     return out
 
 
+def _check_dynamic_realizations(x, where="sweep", default=1):
+    """``dynamic_realizations``: how many realizations of a ``dynamic`` value get the shear test
+    (realizations 0 .. n-1; default 1: one structure per value, issue 32); ``"all"``: every one (None)."""
+    if x is None:
+        return default
+    if x == "all":
+        return None
+    if isinstance(x, bool) or not isinstance(x, int) or x < 1:
+        raise InvalidInputError(f"{where}.dynamic_realizations = {x!r}: give an integer >= 1 (the first n "
+                                'realizations of each dynamic value get the shear test) or "all"')
+    return x
+
+
 def _check_sweep(sw) -> dict:
     if not isinstance(sw, dict):
         raise InvalidInputError(f"sweep = {sw!r}: expected a table")
@@ -191,9 +206,13 @@ def _check_sweep(sw) -> dict:
     from .. import registry
 
     registry.stages()["shear"].resolve(shear, "sweep.shear")  # every key and value, with its key path
+    dyn_real = _check_dynamic_realizations(sw.get("dynamic_realizations"))
+    if "realizations" in shear:
+        raise InvalidInputError(f"sweep.shear.realizations = {shear['realizations']!r}: give "
+                                "sweep.dynamic_realizations (or sweep.set.dynamic_realizations) instead")
     return {"parameter": par, "values": vals, "report": rep, "include": inc, "elastic": el, "modulus": mod,
             "fig5_kn": None if kn is None else [float(x) for x in kn], "dynamic": dyn, "shear": dict(shear),
-            "sets": sets}
+            "sets": sets, "dynamic_realizations": dyn_real}
 
 
 def _set_path(data, path, value, where="sweep"):
@@ -308,10 +327,10 @@ def _check_set(i, s, data):
     return name, label, par, vals, dyn, d
 
 
-def _shear_table(d, shear):
+def _shear_table(d, shear, realizations=None):
     """[analysis.shear] of a dynamic value: the bond options the study's [analysis.elastic] states
     (the same network as the static G'p), then the study's own [analysis.shear] if it has one, then
-    ``[sweep.shear]``."""
+    ``[sweep.shear]``; ``realizations``: the test runs on realizations 0 .. n-1 only (None: all)."""
     from .. import registry
 
     specs = registry.stages()["shear"].specs()
@@ -321,17 +340,20 @@ def _shear_table(d, shear):
     if isinstance(ana.get("shear"), dict):
         table.update(copy.deepcopy(ana["shear"]))
     table.update(copy.deepcopy(shear))
+    table.pop("realizations", None)
+    if realizations is not None:
+        table["realizations"] = int(realizations)
     return table
 
 
-def _entry_study(d, parameter, value, name, where, dynamic, shear):
+def _entry_study(d, parameter, value, name, where, dynamic, shear, dyn_real=1):
     from ..study import load_study
 
     d = copy.deepcopy(d)
     _set_path(d, parameter, value, where)
     d.setdefault("study", {})["name"] = f"{name}-{_label(parameter, value)}"
     if dynamic:
-        d.setdefault("analysis", {})["shear"] = _shear_table(d, shear)
+        d.setdefault("analysis", {})["shear"] = _shear_table(d, shear, dyn_real)
     try:
         return load_study(d)
     except InvalidInputError as exc:
@@ -373,13 +395,15 @@ def sweep_plan(path_or_data):
         _check_report_needs(sw, data, "sweep")
         for v in sw["values"]:
             dyn = any(_same_value(v, x) for x in sw["dynamic"])
-            st = _entry_study(data, sw["parameter"], v, name, "sweep", dyn, sw["shear"])
+            st = _entry_study(data, sw["parameter"], v, name, "sweep", dyn, sw["shear"], sw["dynamic_realizations"])
             entries.append(SweepEntry(None, None, sw["parameter"], v, st, dyn))
         return sw, entries, name
     names = set()
     sets = []
     for i, s in enumerate(sw["sets"]):
         sname, label, par, vals, dyn, d = _check_set(i, s, data)
+        dreal = _check_dynamic_realizations(s.get("dynamic_realizations"), f'sweep.set "{sname}"',
+                                            sw["dynamic_realizations"])
         if sname in names:
             raise InvalidInputError(f'sweep.set #{i + 1}.name = {sname!r}: another set has this name (each set is '
                                     "written to its own folder); give distinct names")
@@ -387,9 +411,10 @@ def sweep_plan(path_or_data):
         _check_report_needs(sw, d, f'sweep.set "{sname}"')
         for v in vals:
             dv = any(_same_value(v, x) for x in dyn)
-            st = _entry_study(d, par, v, f"{name}-{sname}", f'sweep.set "{sname}"', dv, sw["shear"])
+            st = _entry_study(d, par, v, f"{name}-{sname}", f'sweep.set "{sname}"', dv, sw["shear"], dreal)
             entries.append(SweepEntry(sname, label, par, v, st, dv))
-        sets.append({"name": sname, "label": label, "parameter": par, "values": vals, "dynamic": dyn})
+        sets.append({"name": sname, "label": label, "parameter": par, "values": vals, "dynamic": dyn,
+                     "dynamic_realizations": dreal})
     sw["sets"] = sets
     return sw, entries, name
 

@@ -141,6 +141,9 @@ class ShearOptions:
     layers: int = option(3, v.int_min(1), "plate thickness in mean diameters (plates)", fill=False)
     measurement_layers: int = option(5, v.int_min(1), "stress-measurement slabs across the sample (plates)",
                                      fill=False)
+    realizations: int = option(None, v.int_min(1), "run the test on realizations 0 .. N-1 of a study only "
+                                                    "(the others have no [analysis.shear] record; issue 32)",
+                               cli=False, unset="every realization")
 
 
 #: Summary scalars of ``[analysis.shear]`` (``shear.<key>``; per direction ``shear.direction.<g>-<a>.<key>``).

@@ -281,6 +281,7 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
         vals, floppy = [], 0
         dyn = []  # dynamic G'p (oscillatory shear) of the structures that have it
         dyn_tested = dyn_floppy = 0
+        dyn_static = []  # the static G'p of the same structures (those with a dynamic G'p)
         for rec, gsd in _records(folder):
             a, b, c, g, gsd_sd, src, g_aff = _structure_values(rec, gsd, elastic, modulus)
             gd = _dynamic_values(rec)
@@ -308,6 +309,7 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
                 dyn_floppy += gd[2] == "floppy"
                 if math.isfinite(gd[0]):
                     dyn.append(gd[:2])
+                    dyn_static.append(g)
             points.append(point)
         if not vals:
             continue
@@ -320,10 +322,11 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
                "C": float(np.nanmean(arr[:, 2])), "C_se": se(arr[:, 2]),
                "G_MPa": float(arr[:, 3].mean()) * 1e-6, "G_sd_MPa": float(gall) * 1e-6,
                "floppy": floppy, "dynamic": len(dyn), "dynamic_tested": dyn_tested, "dynamic_floppy": dyn_floppy,
-               "G_dyn_MPa": None, "G_dyn_sd_MPa": None}
+               "G_dyn_MPa": None, "G_dyn_sd_MPa": None, "G_dyn_static_MPa": None}
         if dyn:  # mean over the structures; spread over their shear directions and the structures
             d = np.asarray(dyn)
             row["G_dyn_MPa"] = float(d[:, 0].mean()) * 1e-6
+            row["G_dyn_static_MPa"] = float(np.mean(dyn_static)) * 1e-6  # the same structures' static G'p
             row["G_dyn_sd_MPa"] = float(np.sqrt(np.mean(d[:, 1] ** 2) + (d[:, 0].var(ddof=1) if len(d) > 1
                                                                           else 0.0))) * 1e-6
         rows.append(row)
@@ -353,7 +356,7 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
     files = {}
     key = keys[0] if len(keys) == 1 else "value"  # the value column: the one swept key, else "value"
     cols = ["set", *keys, "realizations", "a", "a_se", "b", "C", "C_se", "G_MPa", "G_sd_MPa", "floppy",
-            "G_dyn_MPa", "G_dyn_sd_MPa"]
+            "G_dyn_MPa", "G_dyn_sd_MPa", "G_dyn_static_MPa"]
     with atomic_path(rep / "table2.csv") as tmp:
         with open(tmp, "w") as fh:
             fh.write(",".join(cols) + "\n")
@@ -511,7 +514,10 @@ def _g_dyn_cell(row):
         return f"0 (floppy, {n} of {row['realizations']}{lost})"
     if not n:
         return f"– ({tested} not converged)"
-    return f"{row['G_dyn_MPa']:.3g} ± {row['G_dyn_sd_MPa']:.2g} ({n} of {row['realizations']}{lost})"
+    same = ""  # fewer structures than the row's (sweep dynamic_realizations): their own static G'p beside
+    if tested < row["realizations"] and row.get("G_dyn_static_MPa") is not None:
+        same = f"; static G'p of the same {row['G_dyn_static_MPa']:.3g}"
+    return f"{row['G_dyn_MPa']:.3g} ± {row['G_dyn_sd_MPa']:.2g} ({n} of {row['realizations']}{lost}{same})"
 
 
 def _g_cell(row):
