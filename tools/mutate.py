@@ -580,6 +580,12 @@ MUTANTS += [
     Mutant("k-lub-taper-slope", K + "bd.py",
            "dsfac = -6.0 * t * (1.0 - t) * 2.0 / uc", "dsfac = -6.0 * t * (1.0 - t) / uc",
            ("tests/test_brownian_lubrication.py",), "dropped factor (chain rule of the taper)"),
+    # reversible tangential gels (issue 32, fifth pass): the rolling yield of the model the test pins
+    Mutant("g-bd-rolling-moment-scale", G + "brownian.py",
+           "m = mc / kT / kr if kr > 0 else math.inf",
+           "m = 0.1 * mc / kT / kr if kr > 0 else math.inf",
+           ("tests/test_brownian_escape.py::test_reversible_tangential_gel_coarsens_at_15_mV_within_the_coordination_band",),
+           "wrong scale (rolling yields at a tenth of the given moment: creeping rolling)"),
 ]
 
 # drop-and-roll 3D deposition, the all-sphere cell grid, the surface rule's overhang fallback, the
