@@ -11,6 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import polypack as pp
+
 from polypack.ensemble.sweep import run_sweep, sweep_plan, sweep_studies
 from polypack.errors import InvalidInputError
 
@@ -450,3 +452,99 @@ def test_an_analysis_limited_to_the_first_realizations_leaves_the_others_alone()
     assert not any(k.startswith("shear.") for k in sc)  # in one record only: not averaged as if in both
     assert sc["volume_fraction"]["n"] == 2
     ensemble_curves([r0, r1])  # a record without the analysis is skipped, not an error
+
+
+def _plain_sets(realizations=3):
+    """TWO_SETS without the report and the shear test: packs, pores, contacts and tensors only (seconds)."""
+    d = _data()
+    d["study"]["realizations"] = realizations
+    for k in ("report", "fig5_kn"):
+        d["sweep"].pop(k)
+    for s in d["sweep"]["set"]:
+        s.pop("dynamic")
+    return d
+
+
+def _timeless(k):
+    return k in ("seconds", "files", "sha256") or str(k).endswith("wall_time")
+
+
+def _strip(rec):
+    """A record without what depends on when it ran (timings; the GSD's checksum: the pack's metadata
+    holds the wall time, its arrays are compared bitwise)."""
+    if isinstance(rec, dict):
+        return {k: _strip(v) for k, v in rec.items() if not _timeless(k)}
+    return [_strip(v) for v in rec] if isinstance(rec, list) else rec
+
+
+def test_one_executor_for_all_values_gives_the_value_by_value_records(tmp_path):
+    """With ``workers = 2`` every (value, realization) of both sets shares one process pool (issue 32): the
+    records are those of each value run alone by run_study in this process, bit for bit but for the
+    timing; the summaries and ensemble files match; each value's summary is echoed once; a rerun
+    computes nothing and a lost realization of one value is recomputed alone."""
+    from polypack.ensemble.runner import run_study
+
+    d = _plain_sets()
+    echoed = []
+    got = run_sweep(d, tmp_path / "shared", workers=2, progress=False, echo=echoed.append)
+    _, entries, _ = sweep_plan(d)
+    assert list(got) == [(e.set, e.value) for e in entries]
+    assert len(echoed) == 4 and all(s.startswith("study ") for s in echoed)
+    for e in entries:
+        ref = run_study(e.study, tmp_path / "ref" / e.rel, progress=False)
+        res = got[(e.set, e.value)]
+        assert res.computed == [0, 1, 2] and res.out == tmp_path / "shared" / e.rel
+        assert [_strip(r) for r in res.records] == [_strip(r) for r in ref.records]
+        for i in range(3):
+            a, b = (pp.io.read(f / "realizations" / f"r{i:04d}.gsd") for f in (res.out, ref.out))
+            assert np.array_equal(a.positions, b.positions) and np.array_equal(a.radii, b.radii)  # bitwise
+        sc = [_strip(json.loads((f / "ensemble" / "scalars.json").read_text())) for f in (res.out, ref.out)]
+        assert sc[0] == sc[1] and sc[0]
+        rows, refrows = ([r.split(",") for r in (f / "summary.csv").read_text().splitlines()] for f in (res.out, ref.out))
+        keep = [j for j, c in enumerate(rows[0]) if not _timeless(c)]
+        assert len(keep) >= 8 and [[r[j] for j in keep] for r in rows] == [[r[j] for j in keep] for r in refrows]
+    again = run_sweep(d, tmp_path / "shared", workers=2, progress=False, echo=lambda s: None)
+    assert all(not r.computed and r.skipped == [0, 1, 2] for r in again.values())
+    lost = tmp_path / "shared" / "bd" / "surface_potential=0" / "realizations" / "r0002.json"
+    lost.unlink()
+    again = run_sweep(d, tmp_path / "shared", workers=2, progress=False, echo=lambda s: None)
+    assert {k: r.computed for k, r in again.items()} == {("vem", 0.25): [], ("vem", 1.0): [], ("bd", 0.0): [2],
+                                                          ("bd", 0.012): []}
+
+
+class _Refusing(__import__("concurrent.futures").futures.Executor):
+    """An executor that records what is submitted and fails every task (no computing)."""
+
+    def __init__(self):
+        self.calls = []
+
+    def submit(self, fn, *args):
+        import concurrent.futures as cf
+
+        from polypack.errors import PolypackError
+
+        self.calls.append((args[0]["study"]["name"], args[1], "shear" in args[0]["analysis"]))
+        f = cf.Future()
+        f.set_exception(PolypackError("refused"))
+        return f
+
+
+def test_the_shear_tasks_go_first_and_a_failure_is_raised_after_all(tmp_path, monkeypatch):
+    """On a shared executor the realizations that run the oscillatory shear test (realization 0 of each
+    dynamic value: the longest tasks) are submitted first, the rest in the sweep's order; a failing
+    realization does not stop the others, and the first failure is raised once all are done."""
+    from polypack.errors import PolypackError
+
+    monkeypatch.setenv("POLYPACK_PRECOMPILE", "0")
+    d = _data()
+    d["study"]["realizations"] = 3
+    ex = _Refusing()
+    with pytest.raises(PolypackError, match=r"^3 of 3 realization\(s\) failed \(first: realization 0: refused\)"):
+        run_sweep(d, tmp_path / "o", executor=ex, progress=False, echo=lambda s: None)
+    sheared = [(n, i) for n, i, sh in ex.calls[:2]]
+    assert sheared == [("two-vem-void_ratio=0.25", 0), ("two-bd-surface_potential=0", 0)]
+    assert [c[2] for c in ex.calls] == [True] * 2 + [True, True, False, False, False] + [True, True] + [False] * 3
+    assert len(ex.calls) == 12 and len(set(ex.calls)) == 12
+    assert [c[:2] for c in ex.calls[2:5]] == [("two-vem-void_ratio=0.25", 1), ("two-vem-void_ratio=0.25", 2),
+                                               ("two-vem-void_ratio=1", 0)]
+    assert not list((tmp_path / "o").glob("*/*/realizations/r*.json"))

@@ -38,7 +38,7 @@ from ..study import Study, load_study
 from ._lock import RunFolderLock
 from .stages import check_available, child_seed_records, compile_kernels, compile_module, preflight, realize, study_kernels
 
-__all__ = ["run_study", "EnsembleResult", "run_realization", "verify_realization", "aggregate", "regenerate"]
+__all__ = ["run_study", "run_studies", "EnsembleResult", "run_realization", "verify_realization", "aggregate", "regenerate"]
 
 CI_LEVEL = 0.95
 
@@ -102,9 +102,10 @@ def regenerate(out, index: int):
 _COMPILE_ORDER = ("polypack._kernels.edmd", "polypack._kernels.cells", "polypack._kernels.shake")
 
 
-def _compile_in_pool(pool, study_data):
-    """Compile a study's kernel modules in the pool's workers at once (cold start)."""
-    mods = study_kernels(study_data)
+def _compile_in_pool(pool, study_data, *more):
+    """Compile a study's kernel modules (and those of ``more`` studies) in the pool's workers at once
+    (cold start)."""
+    mods = list(dict.fromkeys(m for d in (study_data, *more) for m in study_kernels(d)))
     mods.sort(key=lambda m: _COMPILE_ORDER.index(m) if m in _COMPILE_ORDER else len(_COMPILE_ORDER))
     futs = [pool.submit(compile_module, m) for m in mods]
     waiting = set(futs)
@@ -356,7 +357,8 @@ def run_study(
         lock.release()
 
 
-def _run_locked(study, out, seeds, executor, workers, force, progress, aggregate_results, t0):
+def _prepare(study, out, force):
+    """The saved state of a locked run folder: ``(records, stale, skipped, todo)`` (resume)."""
     _check_out(out, study, force)
     make_folder(out / "realizations")
     for tmp in (out / "realizations").glob(".r[0-9]*.tmp"):  # left by a killed run
@@ -373,6 +375,34 @@ def _run_locked(study, out, seeds, executor, workers, force, progress, aggregate
             stale.append(i)  # same study, other polypack code: recomputed
     skipped = sorted(records)
     todo = [i for i in range(study.realizations) if i not in records]
+    return records, stale, skipped, todo
+
+
+def _finish(study, out, records, computed, skipped, stale, failures, aggregate_results, t0):
+    """A run folder's ensemble results once its realizations are done (raises if some failed)."""
+    if failures:
+        i, exc = sorted(failures.items())[0]
+        raise PolypackError(
+            f"{len(failures)} of {study.realizations} realization(s) failed (first: realization {i}: {exc}); "
+            f"the {len(records)} finished ones are saved in {out}, rerun to retry"
+        )
+
+    recs = [records[i] for i in range(study.realizations)]
+    _extra_formats(out, study, recs)
+    res = EnsembleResult(out=out, study=study, records=recs, computed=sorted(computed), skipped=skipped,
+                         stale=stale, incomplete=[(r["index"], realization_status(r)) for r in recs if not is_complete(r)])
+    res.files = {
+        "resolved study": out / "study.resolved.toml",
+        "packs + records": out / "realizations",
+    }
+    if aggregate_results:
+        res.files.update(aggregate(out, study, recs))
+    res.seconds = time.perf_counter() - t0
+    return res
+
+
+def _run_locked(study, out, seeds, executor, workers, force, progress, aggregate_results, t0):
+    records, stale, skipped, todo = _prepare(study, out, force)
     computed, failures = [], {}
 
     bar = progress_bar(total=study.realizations, desc=study.name, progress=progress, unit="realization")
@@ -434,25 +464,144 @@ def _run_locked(study, out, seeds, executor, workers, force, progress, aggregate
         if own is not None:
             own.shutdown(wait=True, cancel_futures=True)
     _interrupt.check("interrupted before the ensemble results were aggregated")
-    if failures:
-        i, exc = sorted(failures.items())[0]
-        raise PolypackError(
-            f"{len(failures)} of {study.realizations} realization(s) failed (first: realization {i}: {exc}); "
-            f"the {len(records)} finished ones are saved in {out}, rerun to retry"
-        )
+    return _finish(study, out, records, computed, skipped, stale, failures, aggregate_results, t0)
 
-    recs = [records[i] for i in range(study.realizations)]
-    _extra_formats(out, study, recs)
-    res = EnsembleResult(out=out, study=study, records=recs, computed=sorted(computed), skipped=skipped,
-                         stale=stale, incomplete=[(r["index"], realization_status(r)) for r in recs if not is_complete(r)])
-    res.files = {
-        "resolved study": out / "study.resolved.toml",
-        "packs + records": out / "realizations",
-    }
-    if aggregate_results:
-        res.files.update(aggregate(out, study, recs))
-    res.seconds = time.perf_counter() - t0
-    return res
+
+def run_studies(jobs, *, executor: cf.Executor | None = None, workers: int = 1, force: bool = False, progress=None,
+                wait: float = 0.0, desc: str = "studies", first=None, on_result=None) -> list:
+    """Run the realizations of several studies on one executor: ``[EnsembleResult, ...]`` in ``jobs`` order.
+
+    ``jobs`` is a list of ``(study, out)``; each folder is written exactly as by :func:`run_study`
+    (same records, bit for bit: realization ``i`` of a study is a pure function of its resolved
+    study and seed; same resume, lock, atomic writes and ensemble files), but every missing
+    (study, realization) is submitted to the executor at once, so no worker idles while
+    the last realizations of one study run (a sweep's values, issue 32). A study's ensemble
+    files are written as soon as its own realizations are done, and ``on_result(k, result)``
+    is called then (completion order). ``first(study, index)`` True puts a task ahead of the
+    others (the long ones first, so that they do not run alone at the end); otherwise
+    the tasks go in ``jobs`` order. A realization that fails is kept and the others go
+    on; then the first failure is raised (:class:`~polypack.errors.PolypackError`), after
+    every other study's results are written.
+
+    With ``workers == 1`` and no executor the studies run one after another in this
+    process (:func:`run_study`).
+    """
+    if not (isinstance(workers, int) and workers >= 1):
+        raise InvalidInputError(f"workers={workers!r}: must be an integer >= 1")
+    t0 = time.perf_counter()
+    studies, outs = [], []
+    for st, out in jobs:
+        st = load_study(st)
+        check_available(st.data)
+        check_output_folder(out)
+        preflight(st.data, child_seed_records(st.seed, 1)[0])
+        studies.append(st)
+        outs.append(Path(out))
+    if executor is None and workers == 1:
+        results = []
+        for k, (st, out) in enumerate(zip(studies, outs)):
+            res = run_study(st, out, force=force, progress=progress, wait=wait)
+            if on_result is not None:
+                on_result(k, res)
+            results.append(res)
+        return results
+    locks = []
+    try:
+        for st, out in zip(studies, outs):
+            make_folder(out)
+            locks.append(RunFolderLock(out, st.fingerprint, wait=wait).acquire())
+        return _run_many(studies, outs, executor, workers, force, progress, desc, first, on_result, t0)
+    finally:
+        for lock in locks:
+            lock.release()
+
+
+def _run_many(studies, outs, executor, workers, force, progress, desc, first, on_result, t0):
+    seeds = [child_seed_records(st.seed, st.realizations) for st in studies]
+    state = []  # per study: records, stale, skipped, todo, computed, failures
+    for st, out in zip(studies, outs):
+        records, stale, skipped, todo = _prepare(st, out, force)
+        state.append({"records": records, "stale": stale, "skipped": skipped, "todo": todo, "computed": [],
+                      "failures": {}, "left": len(todo)})
+    tasks = [(k, i) for k, s in enumerate(state) for i in s["todo"]]
+    if first is not None:  # stable: the long tasks first, each group in jobs order
+        tasks.sort(key=lambda t: not first(studies[t[0]], t[1]))
+    results = [None] * len(studies)
+    bar = progress_bar(total=sum(st.realizations for st in studies), desc=desc, progress=progress,
+                       unit="realization")
+    bar.update(sum(len(s["skipped"]) for s in state))
+
+    def finish(k):
+        s = state[k]
+        if s["failures"]:
+            return
+        results[k] = _finish(studies[k], outs[k], s["records"], s["computed"], s["skipped"], s["stale"], {},
+                             True, t0)
+        if on_result is not None:
+            on_result(k, results[k])
+
+    def collect(k, i, result):
+        s = state[k]
+        try:
+            _, pk, rec, sec = result()
+        except PolypackError as exc:
+            s["failures"][i] = exc
+        else:
+            s["records"][i] = _write_realization(outs[k], studies[k], i, pk, rec, sec)
+            s["computed"].append(i)
+        bar.update(1)
+        s["left"] -= 1
+        if s["left"] == 0:
+            finish(k)
+
+    own = None
+    try:
+        for k, s in enumerate(state):  # nothing to compute: read back at once
+            if not s["todo"]:
+                finish(k)
+        if tasks:
+            precompile = os.environ.get("POLYPACK_PRECOMPILE", "1") != "0"
+            need = list(dict.fromkeys(k for k, _ in tasks))
+            if executor is None:
+                own = executor = cf.ProcessPoolExecutor(max_workers=min(workers, len(tasks)), initializer=_worker_init)
+                if precompile:
+                    try:
+                        _compile_in_pool(own, *(studies[k].data for k in need))
+                    except BaseException:
+                        _stop_pool(own)
+                        own = None
+                        raise
+            elif precompile:
+                for k in need:
+                    compile_kernels(studies[k].data)
+            futs = {executor.submit(run_realization, studies[k].data, i, seeds[k][i]): (k, i) for k, i in tasks}
+            order = {f: n for n, f in enumerate(futs)}
+            try:
+                waiting = set(futs)
+                while waiting:
+                    # short waits: a deferred Ctrl-C is seen within a quarter second
+                    done, waiting = cf.wait(waiting, timeout=0.25, return_when=cf.FIRST_COMPLETED)
+                    _interrupt.check("interrupted while realizations were running")
+                    for fut in sorted(done, key=order.get):
+                        collect(*futs[fut], fut.result)
+            except BaseException:
+                if own is not None:
+                    _stop_pool(own)
+                    own = None
+                else:
+                    for f in futs:
+                        f.cancel()
+                raise
+    finally:
+        bar.close()
+        if own is not None:
+            own.shutdown(wait=True, cancel_futures=True)
+    _interrupt.check("interrupted before the ensemble results were aggregated")
+    for k, s in enumerate(state):
+        if s["failures"]:  # the first study with a failure, as run_study names it
+            _finish(studies[k], outs[k], s["records"], s["computed"], s["skipped"], s["stale"], s["failures"],
+                    True, t0)
+    return results
 
 
 # --------------------------------------------------------------------------- aggregation

@@ -434,11 +434,16 @@ def run_sweep(path_or_data, out=None, *, workers=1, executor=None, force=False, 
     """Run every value of every set of a swept study, then its report; returns ``{value: EnsembleResult}``
     (``{(set, value): EnsembleResult}`` with ``[[sweep.set]]`` tables).
 
-    Each value is :func:`polypack.ensemble.run_study` in its own folder, so a rerun resumes: a value
-    whose realizations are all finished is read back, not recomputed.
+    Each value is a study in its own folder (:func:`polypack.ensemble.run_study`'s files, records
+    and resume: a value whose realizations are all finished is read back, not recomputed). With
+    ``workers > 1`` or an ``executor`` the realizations of all values of all sets share one executor
+    (:func:`polypack.ensemble.runner.run_studies`): every missing (value, realization) is submitted at
+    once, the realizations with the oscillatory shear test first, so no worker idles while a value's
+    last realization runs (issue 32); the records are those of a value-by-value run, bit for bit (same
+    seeds). Each value's summary is echoed when its realizations are done.
     """
-    from .runner import run_study
-    from .stages import check_available, child_seed_records, preflight
+    from .runner import run_studies
+    from .stages import _skips, check_available, child_seed_records, preflight
 
     sw, entries, name = sweep_plan(path_or_data)
     for e in entries:  # every value's rules before the first runs
@@ -448,12 +453,14 @@ def run_sweep(path_or_data, out=None, *, workers=1, executor=None, force=False, 
         except InvalidInputError as exc:
             raise InvalidInputError(f"{_where(e)} value {e.value!r}: {exc}") from None
     out = Path(out) if out is not None else Path("out") / name
-    results = {}
-    for e in entries:
-        res = run_study(e.study, out / e.rel, executor=executor, workers=workers, force=force, progress=progress,
-                        wait=wait)
-        echo(res.summary())
-        results[e.value if e.set is None else (e.set, e.value)] = res
+    def sheared(study, index):  # the longest tasks: the oscillatory shear test (minutes per structure)
+        sh = study.data.get("analysis", {}).get("shear")
+        return isinstance(sh, dict) and not _skips(sh, index)
+
+    done = run_studies([(e.study, out / e.rel) for e in entries], executor=executor, workers=workers, force=force,
+                       progress=progress, wait=wait, desc=name, first=sheared,
+                       on_result=lambda k, res: echo(res.summary()))
+    results = {e.value if e.set is None else (e.set, e.value): res for e, res in zip(entries, done)}
     if sw["report"] == "heterogeneity":
         files = heterogeneity_report(out, [(e.value, out / e.rel, e.parameter, e.title) for e in entries],
                                      parameter=entries[0].parameter, include=sw["include"], elastic=sw["elastic"],
