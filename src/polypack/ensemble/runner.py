@@ -484,7 +484,8 @@ def run_studies(jobs, *, executor: cf.Executor | None = None, workers: int = 1, 
     every other study's results are written.
 
     With ``workers == 1`` and no executor the studies run one after another in this
-    process (:func:`run_study`).
+    process (:func:`run_study`). On a shared executor a result's ``seconds`` is the wall time from
+    the start of the whole batch to the end of that study's own aggregation.
     """
     if not (isinstance(workers, int) and workers >= 1):
         raise InvalidInputError(f"workers={workers!r}: must be an integer >= 1")
