@@ -24,7 +24,11 @@ Data layout (flat arrays, C-like):
   at a multiple of the median margin, :func:`_shell_radius`).  Spheres whose
   shells do not overlap cannot collide, so the symmetric lists of shell-overlap
   pairs are complete;
-* neighbour lists in slabs (``off``, ``nn``, ``nbr``), built at each full
+* the event loop numbers the spheres along a Morton curve of the box
+  (:func:`_curve_order`, renewed at each global rebuild) and keeps its per-sphere
+  arrays in that order; ``x``, ``v``, ``g`` stay in the caller's order, and the pack
+  is bit for bit the one without renumbering (``make_params(renumber=False)``);
+* neighbour lists in slabs (``off``, ``nn``, ``nbr``; int32), built at each full
   synchronisation with the size-aware cell search
   :func:`polypack._kernels.cells.pairs_within` (criterion ``d <= rho_i + rho_j``);
 * a shell exit rebuilds only that sphere's shell and list, found in a multi-level
