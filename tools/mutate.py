@@ -695,8 +695,8 @@ MUTANTS += [
            T_ROT + T_DST, "mass for moment of inertia (critical step)"),
     # VEM internals
     Mutant("r3-vem-ratio-half", G + "vem.py",
-           "ratio = fu / (2.0 * fc) if fc > 0 else 0.0", "ratio = fu / fc if fc > 0 else 0.0",
-           T_VI + T_VEM, "factor 2 (unbalanced-force ratio)"),
+           "return fu / (2.0 * fc) if fc > 0 else 0.0", "return fu / fc if fc > 0 else 0.0",
+           T_VI + T_VEM + ("tests/test_vem_adhesive.py",), "factor 2 (unbalanced-force ratio)"),
     Mutant("r3-vem-projection-full", K + "vem.py",
            "corr = 0.5 * (lim - d) / d", "corr = (lim - d) / d",
            T_VI + T_VEM, "factor 2 (overlap-removal projection)"),

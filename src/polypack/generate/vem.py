@@ -194,6 +194,14 @@ def _structure_radii(n, radius):
     return radii, species
 
 
+def _unbalanced_ratio(samples, K, n, active):
+    """PFC's unbalanced-force ratio Σ|F_i| / (2 Σ|f_c|) from the DEM kernel's last sample (``n`` spheres,
+    ``active`` force-carrying contacts); 0 when no contact carries force."""
+    fu = samples[0, K.S_UNBALANCED] * n
+    fc = samples[0, K.S_CONTACT_FORCE] * active
+    return fu / (2.0 * fc) if fc > 0 else 0.0
+
+
 class _Assembly:
     """Structure + void spheres in reduced units (mean structure radius 1, kn = 1, mass 1)."""
 
@@ -370,10 +378,8 @@ class _Assembly:
                 self.bond_new_contacts()
             st = self.stats()
             active = st[V.C_STRUCT_CONTACTS] + st[V.C_VOID_CONTACTS]
-            fu = self.samples[0, K.S_UNBALANCED] * n
-            fc = self.samples[0, K.S_CONTACT_FORCE] * active
-            ratio = fu / (2.0 * fc) if fc > 0 else 0.0
-            if fc == 0.0 or ratio < tolerance:
+            ratio = _unbalanced_ratio(self.samples, K, n, active)
+            if ratio < tolerance:  # 0 when no contact carries force (tolerance > 0)
                 break
             if overlap_floor > 0.0 and (st[V.C_STRUCT_OVERLAP_SUM] + st[V.C_VOID_OVERLAP_SUM]) <= overlap_floor * n:
                 break  # contacts unloaded: summed relative overlap per sphere below the floor
@@ -612,9 +618,7 @@ class _Adhesive:
             self._run(ADHESION_CHECK - 1, False)
             self._run(1, True)
             steps += ADHESION_CHECK
-            fu = self.samples[0, K.S_UNBALANCED] * self.n
-            fc = self.samples[0, K.S_CONTACT_FORCE] * max(int(np.count_nonzero(self.cfn)), 1)
-            ratio = fu / (2.0 * fc) if fc > 0 else 0.0
+            ratio = _unbalanced_ratio(self.samples, K, self.n, max(int(np.count_nonzero(self.cfn)), 1))
             if ratio < ADHESION_RATIO:
                 reason = f"equilibrium: unbalanced-force ratio {ratio:.3g} < {ADHESION_RATIO:g}"
                 break
