@@ -127,6 +127,13 @@ TRANSFORMED = {
 }
 
 
+# options the ensemble reads, not the stage: which realizations run the stage at all (the walker checks
+# that run_analyses skips exactly the realizations the option leaves out)
+SCHEDULED = {
+    ("shear", "realizations"): "ensemble.stages.run_analyses runs the stage on realizations 0 .. N-1 only",
+}
+
+
 def _canon(x, depth=0):
     """A comparable, address-free summary of a recorded argument."""
     if depth > 6:
@@ -257,6 +264,9 @@ def test_option_reaches_the_code_it_configures(monkeypatch, kind, name, opt):
     base = dict(BASE.get(name, {}), **CONTEXT.get((name, opt), {}))
     alt = _alternative(cap, opt, spec, base)
     assert alt is not None, f"{name}.{opt}: no valid alternative value to try; add one to OVERRIDES"
+    if (name, opt) in SCHEDULED:
+        _check_scheduled(monkeypatch, cap, base, opt, alt)
+        return
     with monkeypatch.context() as m:
         before = _run(m, cap, base)
     with monkeypatch.context() as m:
@@ -271,3 +281,20 @@ def test_option_reaches_the_code_it_configures(monkeypatch, kind, name, opt):
         assert _arrived(after, opt, resolved), (
             f"{name}.{opt} = {resolved!r} does not reach {[c[0] for c in after]} as such; if the stage converts "
             "it, say how in TRANSFORMED")
+
+
+def _check_scheduled(monkeypatch, cap, base, opt, n):
+    """A scheduling option: the ensemble runs the stage on realizations ``0 .. n-1`` and on no other."""
+    from polypack.ensemble import stages
+
+    table = cap.resolve(dict(base, **{opt: n}))
+    ran = []
+    for index in range(n + 2):
+        with monkeypatch.context() as m:
+            calls = _record(m, cap)
+            try:
+                stages.run_analyses(_inputs(cap.kind), {cap.name: dict(table)}, np.random.SeedSequence(5), index=index)
+            except _Stop:
+                pass
+        ran.append(bool(calls))
+    assert ran == [True] * n + [False, False], f"{cap.name}.{opt} = {n}: the stage ran on realizations {ran}"
