@@ -194,6 +194,25 @@ def _structure_radii(n, radius):
     return radii, species
 
 
+def _run_dem(sys, steps, sample, rebuild):
+    """Advance ``sys`` (an :class:`_Assembly` or :class:`_Adhesive`) by ``steps`` steps of the DEM
+    contact kernel (contact law Eq. (1) of 003_873b69fc71c74cf6.txt, local damping Eq. (3) of
+    003_873b69fc71c74cf6.txt), calling ``rebuild()`` whenever the kernel asks for new contact lists;
+    ``sample``: the kernel records its samples on every step."""
+    K = sys.K
+    done = 0
+    sys.p[K.P_SAMPLE_EVERY] = 1 if sample else 0
+    while done < steps:
+        status, k, _ = K.run(steps - done, sys.pos, sys.vel, sys.omg, sys.radii, sys.mass, sys.inertia,
+                             sys.kind, sys.pos, sys.h0, sys.ci, sys.cj, sys.cshift, sys.ckn, sys.cks,
+                             sys.crest, sys.cfnb, sys.cfsb, sys.cstate, sys.cfs, sys.cfn, sys.p,
+                             sys.st, sys.samples, 0, sys.xbuild, sys._no_edges, sys._no_layers)
+        done += k
+        if status == K.STATUS_REBUILD:
+            rebuild()
+    sys.p[K.P_SAMPLE_EVERY] = 0
+
+
 def _unbalanced_ratio(samples, K, n, active):
     """PFC's unbalanced-force ratio Σ|F_i| / (2 Σ|f_c|) from the DEM kernel's last sample (``n`` spheres,
     ``active`` force-carrying contacts); 0 when no contact carries force."""
@@ -341,18 +360,7 @@ class _Assembly:
 
     # dynamics ---------------------------------------------------------------------
     def _run(self, steps, sample):
-        K = self.K
-        done = 0
-        self.p[K.P_SAMPLE_EVERY] = 1 if sample else 0
-        while done < steps:
-            status, k, _ = K.run(steps - done, self.pos, self.vel, self.omg, self.radii, self.mass, self.inertia,
-                                 self.kind, self.pos, self.h0, self.ci, self.cj, self.cshift, self.ckn, self.cks,
-                                 self.crest, self.cfnb, self.cfsb, self.cstate, self.cfs, self.cfn, self.p,
-                                 self.st, self.samples, 0, self.xbuild, self._no_edges, self._no_layers)
-            done += k
-            if status == K.STATUS_REBUILD:
-                self.rebuild()
-        self.p[K.P_SAMPLE_EVERY] = 0
+        _run_dem(self, steps, sample, self.rebuild)
 
     def relax(self, tolerance, check_every, max_steps, overlap_floor=0.0):
         """Run until the unbalanced-force ratio < tolerance (or no contact carries force).
@@ -591,19 +599,11 @@ class _Adhesive:
         self.rebuilds += 1
 
     def _run(self, steps, sample):
-        K = self.K
-        done = 0
-        self.p[K.P_SAMPLE_EVERY] = 1 if sample else 0
-        while done < steps:
-            status, k, _ = K.run(steps - done, self.pos, self.vel, self.omg, self.radii, self.mass, self.inertia,
-                                 self.kind, self.pos, self.h0, self.ci, self.cj, self.cshift, self.ckn, self.cks,
-                                 self.crest, self.cfnb, self.cfsb, self.cstate, self.cfs, self.cfn, self.p,
-                                 self.st, self.samples, 0, self.xbuild, self._no_edges, self._no_layers)
-            done += k
-            if status == K.STATUS_REBUILD:
-                self.cfs = self.cfs[: self.nmain]
-                self.build()
-        self.p[K.P_SAMPLE_EVERY] = 0
+        _run_dem(self, steps, sample, self._rebuild_contacts)
+
+    def _rebuild_contacts(self):
+        self.cfs = self.cfs[: self.nmain]
+        self.build()
 
     def relax(self):
         """Damped dynamics until PFC's unbalanced-force ratio is below :data:`ADHESION_RATIO`;
