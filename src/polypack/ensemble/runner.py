@@ -132,6 +132,49 @@ def _stop_pool(pool):
     pool.shutdown(wait=False)
 
 
+def _open_pool(executor, workers, n_tasks, datas):
+    """``(executor, own)``: the executor to submit realizations to, and the process pool this call
+    made and must close (None when the caller gave ``executor``).  The studies' kernels are compiled
+    once first, in the new pool's workers side by side (each written to the numba cache once) or here
+    for a caller's executor, so that the realizations load them instead of compiling the same kernels
+    at the same time (cold start); ``POLYPACK_PRECOMPILE=0`` skips that."""
+    precompile = os.environ.get("POLYPACK_PRECOMPILE", "1") != "0"
+    if executor is not None:
+        if precompile:
+            for d in datas:
+                compile_kernels(d)
+        return executor, None
+    own = cf.ProcessPoolExecutor(max_workers=min(workers, n_tasks), initializer=_worker_init)
+    if precompile:
+        try:
+            _compile_in_pool(own, *datas)
+        except BaseException:
+            _stop_pool(own)
+            raise
+    return own, own
+
+
+def _drain(futs, key, collect, own):
+    """Wait for every future of ``futs``, handing each finished one to ``collect`` (in ``key`` order
+    among those finished together); short waits, so a deferred Ctrl-C is seen within a quarter
+    second.  On any exception the pool ``own`` is stopped (or, for a caller's executor, the futures
+    are cancelled) before it propagates."""
+    try:
+        waiting = set(futs)
+        while waiting:
+            done, waiting = cf.wait(waiting, timeout=0.25, return_when=cf.FIRST_COMPLETED)
+            _interrupt.check("interrupted while realizations were running")
+            for fut in sorted(done, key=key):
+                collect(fut)
+    except BaseException:
+        if own is not None:
+            _stop_pool(own)
+        else:
+            for f in futs:
+                f.cancel()
+        raise
+
+
 def _paths(out: Path, index: int):
     base = out / "realizations" / f"r{index:04d}"
     return base.with_suffix(".gsd"), base.with_suffix(".json")
@@ -426,38 +469,12 @@ def _run_locked(study, out, seeds, executor, workers, force, progress, aggregate
                 _interrupt.check(f"interrupted before realization {i}")
                 collect(i, lambda: run_realization(study.data, i, seeds[i]))
         elif todo:
-            # compile the study's kernels once here: the workers then load the numba cache
-            # instead of compiling the same kernels at the same time (cold start)
-            precompile = os.environ.get("POLYPACK_PRECOMPILE", "1") != "0"
-            if executor is None:
-                own = executor = cf.ProcessPoolExecutor(max_workers=min(workers, len(todo)), initializer=_worker_init)
-                if precompile:
-                    # the kernel modules are compiled side by side, one per worker, each written
-                    # to the numba cache once; the realizations below load them from the cache
-                    try:
-                        _compile_in_pool(own, study.data)
-                    except BaseException:
-                        _stop_pool(own)
-                        own = None
-                        raise
-            elif precompile:
-                compile_kernels(study.data)
+            executor, own = _open_pool(executor, workers, len(todo), [study.data])
             futs = {executor.submit(run_realization, study.data, i, seeds[i]): i for i in todo}
             try:
-                waiting = set(futs)
-                while waiting:
-                    # short waits: a deferred Ctrl-C is seen within a quarter second
-                    done, waiting = cf.wait(waiting, timeout=0.25, return_when=cf.FIRST_COMPLETED)
-                    _interrupt.check("interrupted while realizations were running")
-                    for fut in sorted(done, key=lambda f: futs[f]):
-                        collect(futs[fut], fut.result)
+                _drain(futs, futs.get, lambda f: collect(futs[f], f.result), own)
             except BaseException:
-                if own is not None:
-                    _stop_pool(own)
-                    own = None
-                else:
-                    for f in futs:
-                        f.cancel()
+                own = None  # stopped by _drain
                 raise
     finally:
         bar.close()
@@ -561,37 +578,14 @@ def _run_many(studies, outs, executor, workers, force, progress, desc, first, on
             if not s["todo"]:
                 finish(k)
         if tasks:
-            precompile = os.environ.get("POLYPACK_PRECOMPILE", "1") != "0"
             need = list(dict.fromkeys(k for k, _ in tasks))
-            if executor is None:
-                own = executor = cf.ProcessPoolExecutor(max_workers=min(workers, len(tasks)), initializer=_worker_init)
-                if precompile:
-                    try:
-                        _compile_in_pool(own, *(studies[k].data for k in need))
-                    except BaseException:
-                        _stop_pool(own)
-                        own = None
-                        raise
-            elif precompile:
-                for k in need:
-                    compile_kernels(studies[k].data)
+            executor, own = _open_pool(executor, workers, len(tasks), [studies[k].data for k in need])
             futs = {executor.submit(run_realization, studies[k].data, i, seeds[k][i]): (k, i) for k, i in tasks}
             order = {f: n for n, f in enumerate(futs)}
             try:
-                waiting = set(futs)
-                while waiting:
-                    # short waits: a deferred Ctrl-C is seen within a quarter second
-                    done, waiting = cf.wait(waiting, timeout=0.25, return_when=cf.FIRST_COMPLETED)
-                    _interrupt.check("interrupted while realizations were running")
-                    for fut in sorted(done, key=order.get):
-                        collect(*futs[fut], fut.result)
+                _drain(futs, order.get, lambda f: collect(*futs[f], f.result), own)
             except BaseException:
-                if own is not None:
-                    _stop_pool(own)
-                    own = None
-                else:
-                    for f in futs:
-                        f.cancel()
+                own = None  # stopped by _drain
                 raise
     finally:
         bar.close()
