@@ -582,8 +582,8 @@ ROUND3 = [
            T_SETS, "missing output (the dynamic G'p column of report.html always empty)"),
     # ------------------------------------------------------------------ issue 32: VEM adhesive restructuring
     Mutant("r3-32-adh-friction-ignored", S + "generate/vem.py",
-           "        p[K.P_MU] = mu\n",
-           "        p[K.P_MU] = 0.0\n",
+           "damping, mu, self.box, 0.5 * self.skin)",
+           "damping, 0.0, self.box, 0.5 * self.skin)",
            T_VEMA, "option dropped (new contacts frictionless: they slide and the network folds too far)"),
     Mutant("r3-32-adh-no-bonds", S + "generate/vem.py",
            "bond = d <= (1.0 + ADHESION_BOND_GAP) * (self.radii[i] + self.radii[j])",

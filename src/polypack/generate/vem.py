@@ -194,6 +194,26 @@ def _structure_radii(n, radius):
     return radii, species
 
 
+def _damped_params(K, dt, damping, friction, box, skin):
+    """The DEM kernel's parameter vector for damped dynamics without a drive (Lees–Edwards mode at zero
+    amplitude): time step ``dt``, local damping α of Eq. (3) of 003_873b69fc71c74cf6.txt, Coulomb
+    friction, neighbour skin; no sampling."""
+    p = np.zeros(K.N_P)
+    p[K.P_DT] = dt
+    p[K.P_OMEGA] = 1.0
+    p[K.P_RAMP] = 1.0
+    p[K.P_ALPHA] = damping
+    p[K.P_MU] = friction
+    p[K.P_VOLUME] = float(np.prod(box))
+    p[K.P_LENGTH] = box[2]
+    p[K.P_AXIS_A] = 0
+    p[K.P_AXIS_G] = 2
+    p[K.P_MODE] = K.MODE_LEES_EDWARDS
+    p[K.P_SAMPLE_EVERY] = 0
+    p[K.P_SKIN] = skin
+    return p
+
+
 def _run_dem(sys, steps, sample, rebuild):
     """Advance ``sys`` (an :class:`_Assembly` or :class:`_Adhesive`) by ``steps`` steps of the DEM
     contact kernel (contact law Eq. (1) of 003_873b69fc71c74cf6.txt, local damping Eq. (3) of
@@ -251,19 +271,7 @@ class _Assembly:
         self.skin = skin
         kmax = max(kn, knv, ks, ksv, self.knvv, self.ksvv)
         self.dt = 0.2 / math.sqrt(kmax)
-        p = np.zeros(K.N_P)
-        p[K.P_DT] = self.dt
-        p[K.P_OMEGA] = 1.0
-        p[K.P_RAMP] = 1.0
-        p[K.P_ALPHA] = damping
-        p[K.P_MU] = friction
-        p[K.P_VOLUME] = float(np.prod(self.box))
-        p[K.P_LENGTH] = self.box[2]
-        p[K.P_AXIS_A] = 0
-        p[K.P_AXIS_G] = 2
-        p[K.P_MODE] = K.MODE_LEES_EDWARDS  # damped dynamics, no drive (zero amplitude)
-        p[K.P_SAMPLE_EVERY] = 0
-        p[K.P_SKIN] = skin
+        p = _damped_params(K, self.dt, damping, friction, self.box, skin)
         self.p = p
         self.samples = np.zeros((1, K.N_S))
         self._no_edges = np.zeros(0)
@@ -517,18 +525,7 @@ class _Adhesive:
         self.ks, self.rng, self.lever = float(ks), float(rng), 1.0
         self.skin = max(0.2, self.rng + 0.1)
         self.st = np.zeros(K.N_ST)
-        p = np.zeros(K.N_P)
-        p[K.P_DT] = 0.2 / math.sqrt(max(1.0, ks))
-        p[K.P_OMEGA] = 1.0
-        p[K.P_RAMP] = 1.0
-        p[K.P_ALPHA] = damping
-        p[K.P_MU] = mu
-        p[K.P_VOLUME] = float(np.prod(self.box))
-        p[K.P_LENGTH] = self.box[2]
-        p[K.P_AXIS_A] = 0
-        p[K.P_AXIS_G] = 2
-        p[K.P_MODE] = K.MODE_LEES_EDWARDS  # damped dynamics, no drive (zero amplitude)
-        p[K.P_SKIN] = 0.5 * self.skin
+        p = _damped_params(K, 0.2 / math.sqrt(max(1.0, ks)), damping, mu, self.box, 0.5 * self.skin)
         self.p = p
         self.samples = np.zeros((1, K.N_S))
         self._no_edges = np.zeros(0)
