@@ -20,6 +20,7 @@ missing ones.  Every file is written atomically.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import csv
 import hashlib
 import json
@@ -154,11 +155,11 @@ def _open_pool(executor, workers, n_tasks, datas):
     return own, own
 
 
-def _drain(futs, key, collect, own):
+def _drain(futs, key, collect):
     """Wait for every future of ``futs``, handing each finished one to ``collect`` (in ``key`` order
     among those finished together); short waits, so a deferred Ctrl-C is seen within a quarter
-    second.  On any exception the pool ``own`` is stopped (or, for a caller's executor, the futures
-    are cancelled) before it propagates."""
+    second.  On any exception the futures not yet started are cancelled before it propagates (the
+    pool itself is stopped by :func:`_pool`)."""
     try:
         waiting = set(futs)
         while waiting:
@@ -167,12 +168,25 @@ def _drain(futs, key, collect, own):
             for fut in sorted(done, key=key):
                 collect(fut)
     except BaseException:
+        for f in futs:
+            f.cancel()
+        raise
+
+
+@contextlib.contextmanager
+def _pool(executor, workers, n_tasks, datas):
+    """The executor to submit realizations to (:func:`_open_pool`), for a ``with`` block: a pool made
+    here is shut down after the block, or stopped at once (workers terminated) when the block raises,
+    e.g. on Ctrl-C or a failed collection.  A caller's executor is left open."""
+    executor, own = _open_pool(executor, workers, n_tasks, datas)
+    try:
+        yield executor
+    except BaseException:
         if own is not None:
             _stop_pool(own)
-        else:
-            for f in futs:
-                f.cancel()
         raise
+    if own is not None:
+        own.shutdown(wait=True, cancel_futures=True)
 
 
 def _paths(out: Path, index: int):
@@ -462,24 +476,17 @@ def _run_locked(study, out, seeds, executor, workers, force, progress, aggregate
             computed.append(i)
         bar.update(1)
 
-    own = None
     try:
         if todo and executor is None and workers == 1:
             for i in todo:
                 _interrupt.check(f"interrupted before realization {i}")
                 collect(i, lambda: run_realization(study.data, i, seeds[i]))
         elif todo:
-            executor, own = _open_pool(executor, workers, len(todo), [study.data])
-            futs = {executor.submit(run_realization, study.data, i, seeds[i]): i for i in todo}
-            try:
-                _drain(futs, futs.get, lambda f: collect(futs[f], f.result), own)
-            except BaseException:
-                own = None  # stopped by _drain
-                raise
+            with _pool(executor, workers, len(todo), [study.data]) as pool:
+                futs = {pool.submit(run_realization, study.data, i, seeds[i]): i for i in todo}
+                _drain(futs, futs.get, lambda f: collect(futs[f], f.result))
     finally:
         bar.close()
-        if own is not None:
-            own.shutdown(wait=True, cancel_futures=True)
     _interrupt.check("interrupted before the ensemble results were aggregated")
     return _finish(study, out, records, computed, skipped, stale, failures, aggregate_results, t0)
 
@@ -572,25 +579,18 @@ def _run_many(studies, outs, executor, workers, force, progress, desc, first, on
         if s["left"] == 0:
             finish(k)
 
-    own = None
     try:
         for k, s in enumerate(state):  # nothing to compute: read back at once
             if not s["todo"]:
                 finish(k)
         if tasks:
             need = list(dict.fromkeys(k for k, _ in tasks))
-            executor, own = _open_pool(executor, workers, len(tasks), [studies[k].data for k in need])
-            futs = {executor.submit(run_realization, studies[k].data, i, seeds[k][i]): (k, i) for k, i in tasks}
-            order = {f: n for n, f in enumerate(futs)}
-            try:
-                _drain(futs, order.get, lambda f: collect(*futs[f], f.result), own)
-            except BaseException:
-                own = None  # stopped by _drain
-                raise
+            with _pool(executor, workers, len(tasks), [studies[k].data for k in need]) as pool:
+                futs = {pool.submit(run_realization, studies[k].data, i, seeds[k][i]): (k, i) for k, i in tasks}
+                order = {f: n for n, f in enumerate(futs)}
+                _drain(futs, order.get, lambda f: collect(*futs[f], f.result))
     finally:
         bar.close()
-        if own is not None:
-            own.shutdown(wait=True, cancel_futures=True)
     _interrupt.check("interrupted before the ensemble results were aggregated")
     for k, s in enumerate(state):
         if s["failures"]:  # the first study with a failure, as run_study names it
