@@ -294,3 +294,39 @@ def test_ziggurat_normals_are_standard_normal():
     np.testing.assert_array_equal(a, b)
     np.testing.assert_array_equal(a, out[:5])
     assert len(set(a)) == 5
+
+
+@pytest.mark.parametrize("ncell", [(5, 4, 6), (3, 3, 3), (1, 2, 7), (7, 9, 8)])
+def test_verlet_list_is_pairs_within_in_its_order_with_flags_and_image_counts(ncell):
+    """bd._build (cells enumerated in place, scan stopped at j >= i, bonded flags from a per-sphere mark):
+    the pairs and order of cells.pairs_within on unwrapped positions (some several boxes away), in grids
+    with wrapped, fully scanned (2 r + 1 >= ncell) and single-cell axes; flags are the bonded pairs of a
+    random bond list, image counts give the minimum image."""
+    from polypack._kernels.cells import min_image, pairs_within
+
+    rng = np.random.default_rng(sum(ncell))
+    box = np.array([23.0, 20.0, 25.0])
+    n = 300
+    pos = rng.uniform(0.0, 1.0, (n, 3)) * box + rng.integers(-3, 4, (n, 3)) * box
+    p = np.zeros(bd.N_PARAMS)
+    p[bd.P_R_CUT] = 2.5
+    p[bd.P_SKIN] = 0.9
+    nc = np.array(ncell, np.int64)
+    ri, rj, _ = pairs_within(pos, np.ones(n), box, 0.0, 3.4, nc)
+    assert ri.size > 200
+    bonded = {tuple(sorted(x)) for x in zip(ri[::3], rj[::3])}
+    adj = np.zeros((n, 24), np.int64)
+    deg = np.zeros(n, np.int64)
+    for a, b in bonded:
+        adj[a, deg[a]] = b
+        deg[a] += 1
+        adj[b, deg[b]] = a
+        deg[b] += 1
+    pi, pj, flag, img = bd._build(pos, box, p, adj, deg, nc)
+    np.testing.assert_array_equal(pi, ri)
+    np.testing.assert_array_equal(pj, rj)
+    np.testing.assert_array_equal(flag, [tuple(sorted(x)) in bonded for x in zip(pi, pj)])
+    for k in range(pi.size):
+        for c in range(3):
+            d = pos[pj[k], c] - pos[pi[k], c]
+            assert d - box[c] * img[k, c] == pytest.approx(min_image(d, box[c]), abs=1e-9)

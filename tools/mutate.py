@@ -580,6 +580,17 @@ MUTANTS += [
     Mutant("k-lub-taper-slope", K + "bd.py",
            "dsfac = -6.0 * t * (1.0 - t) * 2.0 / uc", "dsfac = -6.0 * t * (1.0 - t) / uc",
            ("tests/test_brownian_lubrication.py",), "dropped factor (chain rule of the taper)"),
+    # BD Verlet list built in place (issue 32, 5 Dec): cell wrap, fully scanned axes, bonded flags by mark
+    Mutant("k-bd-cell-wrap", K + "bd.py",
+           "    elif x >= ncell:\n        x -= ncell\n", "    elif x > ncell:\n        x -= ncell\n",
+           ("tests/test_bd_kernel.py",), "off-by-one (periodic wrap of the cell index)"),
+    Mutant("k-bd-reach-full", K + "bd.py",
+           "    if 2 * r + 1 >= ncell:\n        return 0, ncell - 1, True\n",
+           "    if 2 * r + 1 > ncell:\n        return 0, ncell - 1, True\n",
+           ("tests/test_bd_kernel.py",), "off-by-one (axis scanned whole: cells visited in another order)"),
+    Mutant("k-bd-flag-mark", K + "bd.py",
+           "        if mark[pj[k]] == i:\n", "        if mark[pj[k]] >= 0:\n",
+           ("tests/test_bd_kernel.py",), "wrong condition (partners of earlier spheres flagged as bonded)"),
     # reversible tangential gels (issue 32, fifth pass): the rolling yield of the model the test pins
     Mutant("g-bd-rolling-moment-scale", G + "brownian.py",
            "m = mc / kT / kr if kr > 0 else math.inf",

@@ -57,7 +57,7 @@ from enum import IntEnum
 import numpy as np
 from numba import njit
 
-from .cells import build_cells, cell_lengths, cells_in_reach, min_image
+from .cells import build_cells, cell_lengths, min_image
 
 # parameter slots
 P_DT = 0
@@ -242,36 +242,78 @@ def _shifted(d, q, length):
     return d - length * q
 
 
+@njit(cache=True, inline="always")
+def _reach_cells(reach, length, ncell):
+    """``(lo, hi, full)`` cell offsets along one axis, as :func:`~polypack._kernels.cells.cells_in_reach` takes them."""
+    r = int(np.ceil(reach / length))
+    if 2 * r + 1 >= ncell:
+        return 0, ncell - 1, True
+    return -r, r, False
+
+
+@njit(cache=True, inline="always")
+def _wrap_cell(o, c, ncell, full):
+    """Cell ``(c + o) % ncell`` for ``|o| < ncell`` (``o`` itself along a fully scanned axis)."""
+    if full:
+        return o
+    x = c + o
+    if x < 0:
+        x += ncell
+    elif x >= ncell:
+        x -= ncell
+    return x
+
+
 @njit(cache=True)
 def _fill_verlet(pos, box, reach, ncell, cell_of, start, order, pi, pj, img):
-    """Store the pairs of :func:`_verlet_pairs` into the buffers; returns their count (may exceed the buffers)."""
+    """Store the pairs of :func:`_verlet_pairs` into the buffers; returns their count (may exceed the buffers).
+
+    The cells of each sphere are those of :func:`~polypack._kernels.cells.cells_in_reach`, in its
+    order, enumerated in place with the periodic wrap as one comparison per axis (the ~40 Python
+    modulos and three work arrays per sphere of ``cells_in_reach`` took most of a rebuild); within
+    a cell the spheres are in increasing index (:func:`~polypack._kernels.cells.build_cells`), so
+    the scan stops at the first ``j >= i``.  Pairs and order are those before, bit for bit.
+    """
     cap = pi.shape[0]
     cl = cell_lengths(box, ncell)
-    visit = np.empty(start.shape[0] - 1, np.int64)
+    n0 = ncell[0]
+    n1 = ncell[1]
+    n2 = ncell[2]
+    lo0, hi0, full0 = _reach_cells(reach, cl[0], n0)
+    lo1, hi1, full1 = _reach_cells(reach, cl[1], n1)
+    lo2, hi2, full2 = _reach_cells(reach, cl[2], n2)
     lim2 = reach * reach
     m = 0
     for i in range(pos.shape[0]):
-        nv = cells_in_reach(cell_of[i], reach, cl, ncell, visit)
+        ic = cell_of[i]
+        cz = ic % n2
+        cy = (ic // n2) % n1
+        cx = ic // (n1 * n2)
         xi0 = pos[i, 0]
         xi1 = pos[i, 1]
         xi2 = pos[i, 2]
-        for q in range(nv):
-            c = visit[q]
-            for s in range(start[c], start[c + 1]):
-                j = order[s]
-                if j >= i:
-                    continue
-                dx = min_image(pos[j, 0] - xi0, box[0])
-                dy = min_image(pos[j, 1] - xi1, box[1])
-                dz = min_image(pos[j, 2] - xi2, box[2])
-                if dx * dx + dy * dy + dz * dz <= lim2:
-                    if m < cap:
-                        pi[m] = i
-                        pj[m] = j
-                        img[m, 0] = _image_count(pos[j, 0] - xi0, box[0])
-                        img[m, 1] = _image_count(pos[j, 1] - xi1, box[1])
-                        img[m, 2] = _image_count(pos[j, 2] - xi2, box[2])
-                    m += 1
+        for ox in range(lo0, hi0 + 1):
+            x = _wrap_cell(ox, cx, n0, full0)
+            for oy in range(lo1, hi1 + 1):
+                y = _wrap_cell(oy, cy, n1, full1)
+                for oz in range(lo2, hi2 + 1):
+                    z = _wrap_cell(oz, cz, n2, full2)
+                    c = (x * n1 + y) * n2 + z
+                    for s in range(start[c], start[c + 1]):
+                        j = order[s]
+                        if j >= i:
+                            break
+                        dx = min_image(pos[j, 0] - xi0, box[0])
+                        dy = min_image(pos[j, 1] - xi1, box[1])
+                        dz = min_image(pos[j, 2] - xi2, box[2])
+                        if dx * dx + dy * dy + dz * dz <= lim2:
+                            if m < cap:
+                                pi[m] = i
+                                pj[m] = j
+                                img[m, 0] = _image_count(pos[j, 0] - xi0, box[0])
+                                img[m, 1] = _image_count(pos[j, 1] - xi1, box[1])
+                                img[m, 2] = _image_count(pos[j, 2] - xi2, box[2])
+                            m += 1
     return m
 
 
@@ -301,14 +343,17 @@ def _build(pos, box, params, adj, deg, ncell):
         e = np.empty(0, np.int64)
         return e, e.copy(), np.empty(0, np.uint8), np.empty((0, 3), np.int16)
     pi, pj, img = _verlet_pairs(pos, box, params[P_R_CUT] + params[P_SKIN], ncell)
+    # the pairs come grouped by i: mark i's partners once, then one look-up per pair
     flag = np.zeros(pi.shape[0], np.uint8)
+    mark = np.full(pos.shape[0], -1, np.int64)
+    last = -1
     for k in range(pi.shape[0]):
         i = pi[k]
-        j = pj[k]
-        if deg[i] <= deg[j]:
-            if _bonded(adj, deg, i, j):
-                flag[k] = 1
-        elif _bonded(adj, deg, j, i):
+        if i != last:
+            last = i
+            for q in range(deg[i]):
+                mark[adj[i, q]] = i
+        if mark[pj[k]] == i:
             flag[k] = 1
     return pi, pj, flag, img
 
