@@ -205,6 +205,43 @@ def test_tangential_gel_lies_between_the_limits():
     assert rg + 0.3 < bt["coordination"] < fl - 0.3, (rg, bt["coordination"], fl)
 
 
+def test_dlvo_rolling_moment_follows_the_pull_off_force():
+    """rolling_moment="dlvo": a F_adh / 100 with F_adh the whole DLVO pull-off force at contact; at 0 mV
+    the van der Waals default within O(h_c/a) (exact Hamaker against Derjaguin), falling with Ψ0 by the
+    double layer's π a W(h_c); recorded in meta and accepted by the study schema."""
+    from polypack.generate.brownian import ROLLING_TO_ADHESION, BrownianSimulation
+    from polypack.generate.dlvo import adhesion_force, dlvo_parameters
+    from polypack.study import validate
+
+    a, box = 0.25e-6, 4e-6
+    pos = np.random.default_rng(1).random((60, 3)) * box
+    mc = {}
+    for psi in (0.0, 0.015):
+        p = dlvo_parameters(psi, minimum_separation=4e-9)
+        t = BrownianSimulation(pos, box, p, bonds="tangential", rolling_moment="dlvo", bond_width=4e-9).tangential
+        assert t["moment_rule"] == "dlvo" and not t["default_moment"]
+        assert t["rolling_moment"] == ROLLING_TO_ADHESION * a * adhesion_force(p)
+        mc[psi] = t["rolling_moment_kT"]
+    p0 = dlvo_parameters(0.0, minimum_separation=4e-9)
+    vdw = BrownianSimulation(pos, box, p0, bonds="tangential", bond_width=4e-9).tangential["rolling_moment_kT"]
+    assert 0 < 1 - mc[0.0] / vdw < 3 * 4e-9 / a
+    np.testing.assert_allclose([mc[0.0], mc[0.015]], [28.59, 22.23], rtol=1e-3)  # kT (docs/brownian.md)
+    with pytest.warns(RuntimeWarning, match="not stable"):  # a 2 ms run: only the recorded moment matters
+        g = pp.brownian(40, 0.4, 0.012, seed=1, bonds="tangential", rolling_moment="dlvo", minimum_separation=4e-9,
+                        bond_width=4e-9, max_time=2e-3, min_time=2e-3, progress=False).meta["brownian"]["tangential"]
+    assert g["moment_rule"] == "dlvo" and g["rolling_moment_kT"] == pytest.approx(24.52, rel=1e-3)
+    base = {"study": {"seed": 1}, "psd": {"model": "monodisperse", "n": 40}, "output": {"plots": False}}
+    ok = validate({**base, "protocol": {"kind": "brownian", "bonds": "tangential", "rolling_moment": "dlvo"}})
+    assert ok["protocol"]["rolling_moment"] == "dlvo"
+    with pytest.raises(InvalidInputError, match='^protocol.rolling_moment = "vdw": allowed'):
+        validate({**base, "protocol": {"kind": "brownian", "bonds": "tangential", "rolling_moment": "vdw"}})
+    with pytest.raises(InvalidInputError, match="^rolling_moment='Dlvo': allowed"):
+        pp.brownian(40, bonds="tangential", rolling_moment="Dlvo")
+    with pytest.raises(InvalidInputError, match="rolling_moment='dlvo': the DLVO force .* is repulsive"):
+        BrownianSimulation(pos, box, dlvo_parameters(0.1, minimum_separation=4e-9), bonds="tangential",
+                           rolling_moment="dlvo", bond_width=4e-9)
+
+
 def test_bad_tangential_input():
     with pytest.raises(InvalidInputError, match="rolling_moment"):
         pp.brownian(100, bonds="tangential", rolling_moment=-1.0)

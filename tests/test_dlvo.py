@@ -119,6 +119,48 @@ def test_extrema_are_stationary():
     assert ex.barrier_separation < ex.secondary_separation
 
 
+@pytest.mark.parametrize("psi,model,hc", [(0.0, "hhf", 0.4e-9), (0.0, "hhf", 4e-9), (0.012, "hhf", 4e-9),
+                                           (0.015, "hhf", 4e-9), (0.015, "lsa", 4e-9), (0.03, "hhf", 2e-9)])
+def test_adhesion_force_is_the_contact_slope_of_the_potential(psi, model, hc):
+    """F_adh = dV/dh at the closest approach, against a one-sided second-order finite difference of
+    dlvo_potential outside it (relative 1e-6; a missing double layer is off by 10-50 % here)."""
+    a = 0.25e-6
+    p = dlvo.dlvo_parameters(psi, model=model, minimum_separation=hc)
+    d = 1e-4 * hc
+    v0, v1, v2 = (dlvo.dlvo_potential(2 * a + hc + k * d, p) for k in (0, 1, 2))
+    num = (-3 * v0 + 4 * v1 - v2) / (2 * d)
+    assert dlvo.adhesion_force(p) == pytest.approx(num, rel=1e-6)
+    # the pull-off force is the largest attraction met on the way out (monotone attraction beyond h_c)
+    h = hc + np.geomspace(1e-12, 30e-9, 400)
+    assert np.max(-dlvo.dlvo_force(2 * a + h, p)) <= dlvo.adhesion_force(p) * (1 + 1e-9)
+
+
+def test_adhesion_force_derjaguin_identities():
+    """Derjaguin: F = π a W(h_c) for equal spheres. Van der Waals alone (Ψ0 = 0): W = A/(12π h²), so
+    F -> A a / (12 h_c²), the exact Hamaker force lying below it by O(h_c/a); the HHF double layer
+    removes π a 2εκΨ0²/(1 + exp(κ h_c)) (constant-potential plates), exactly."""
+    a = 0.25e-6
+    for hc in (0.2e-9, 0.4e-9, 4e-9):
+        p = dlvo.dlvo_parameters(0.0, minimum_separation=hc)
+        dev = 1 - dlvo.adhesion_force(p) / (p.hamaker * a / (12 * hc**2))
+        assert 0 < dev < 3 * hc / a, (hc, dev)
+    for psi in (0.005, 0.012, 0.015):
+        p0 = dlvo.dlvo_parameters(0.0, minimum_separation=4e-9)
+        p = dlvo.dlvo_parameters(psi, minimum_separation=4e-9)
+        eps = p.relative_permittivity * 8.8541878128e-12
+        w_el = 2 * eps * p.kappa * psi**2 / (1 + math.exp(p.kappa * 4e-9))
+        assert dlvo.adhesion_force(p0) - dlvo.adhesion_force(p) == pytest.approx(math.pi * a * w_el, rel=1e-10)
+    # in kT/a at the 4 nm contact of docs/brownian.md (sixth pass): 2859, 2452, 2223 at 0, 12, 15 mV
+    kt_a = [dlvo.adhesion_force(s, minimum_separation=4e-9) * a / (KB * 293.15) for s in (0.0, 0.012, 0.015)]
+    np.testing.assert_allclose(kt_a, [2859.1, 2452.0, 2223.0], rtol=1e-4)
+
+
+def test_adhesion_force_bad_input():
+    with pytest.raises(InvalidInputError, match="minimum_separation"):
+        dlvo.adhesion_force(0.0, minimum_separation=0.0)
+    assert dlvo.adhesion_force(0.1, minimum_separation=4e-9) < 0  # double layer wins: no adhesion at h_c
+
+
 def test_bad_input():
     with pytest.raises(InvalidInputError, match="radius"):
         dlvo.dlvo_parameters(0.01, radius=-1e-6)

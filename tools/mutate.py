@@ -597,6 +597,17 @@ MUTANTS += [
            "m = 0.1 * mc / kT / kr if kr > 0 else math.inf",
            ("tests/test_brownian_escape.py::test_reversible_tangential_gel_coarsens_at_15_mV_within_the_coordination_band",),
            "wrong scale (rolling yields at a tenth of the given moment: creeping rolling)"),
+    # rolling_moment="dlvo" (issue 32, sixth pass): the pull-off force of the whole DLVO potential at contact
+    Mutant("g-dlvo-adhesion-vdw-only", G + "dlvo.py",
+           "return float(dv_vdw[0] + dv_el[0])", "return float(dv_vdw[0])",
+           ("tests/test_dlvo.py::test_adhesion_force_is_the_contact_slope_of_the_potential",
+            "tests/test_dlvo.py::test_adhesion_force_derjaguin_identities"),
+           "dropped term (double layer left out of the pull-off force)"),
+    Mutant("g-bd-dlvo-moment-ignores-psi", G + "brownian.py",
+           "            f_adh = adhesion_force(p)\n",
+           "            f_adh = p.hamaker * a / (12.0 * p.minimum_separation ** 2)\n",
+           ("tests/test_brownian_tangential.py::test_dlvo_rolling_moment_follows_the_pull_off_force",),
+           "wrong force (the van der Waals default in place of the DLVO pull-off force)"),
 ]
 
 # drop-and-roll 3D deposition, the all-sphere cell grid, the surface rule's overhang fallback, the

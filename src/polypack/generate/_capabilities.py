@@ -228,6 +228,18 @@ register("protocol", "vem", VEMOptions, run_vem, Outputs(meta=("vem",), labels=V
                   "polypack._kernels.dem", "polypack._kernels.vem"))
 
 
+def _rolling_moment(x):
+    """A rolling moment (number > 0 or inf) or a named rule of polypack.generate.brownian ("dlvo")."""
+    if isinstance(x, str):
+        if x != "dlvo":
+            raise v.Bad('allowed: a number > 0, inf or "dlvo"')
+        return x
+    return v.positive_or_inf(x)
+
+
+_rolling_moment.describe = 'number > 0, inf or "dlvo"'
+
+
 @dataclass(frozen=True)
 class BrownianOptions:
     """``[protocol] kind = "brownian"``: the options of :func:`polypack.brownian` (SI units).
@@ -277,7 +289,9 @@ class BrownianOptions:
                                             "(TANGENTIAL_STEP_STIFFNESS / (3.5 Δt D0/a²) kT/a²)")
     rolling_stiffness: float = option(None, v.non_negative, "tangential bonds: rolling stiffness", unit="J",
                                       unset="4 k_s a² (sliding and rolling around a partner cost the same)")
-    rolling_moment: float = option(None, v.positive_or_inf, "tangential bonds: critical rolling moment (inf: no yield)",
+    rolling_moment: float = option(None, _rolling_moment, "tangential bonds: critical rolling moment (inf: no yield; "
+                                   "\"dlvo\": a F_adh / 100 with F_adh the pull-off force of the whole DLVO potential "
+                                   "at minimum_separation, falling with Ψ0)",
                                    unit="N m",
                                    unset="a F_adh / 100 (Heim et al. 1999), F_adh the van der Waals force at "
                                          "minimum_separation")

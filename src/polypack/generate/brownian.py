@@ -47,7 +47,9 @@ a bond constrains is the bond model ``bonds``:
   anchor directions (``rolling_stiffness``); rolling turns plastic at the critical
   moment ``rolling_moment`` (Dominik & Tielens 1995), whose default is 1/100 of ``a``
   times the adhesion force, the ratio measured for silica microspheres by Heim et
-  al. (1999).  Twisting is free.  Zero stiffnesses give the flexible model exactly;
+  al. (1999); ``rolling_moment="dlvo"`` takes the adhesion force of the whole DLVO
+  potential at contact instead of its van der Waals part, so the moment falls with Ψ0.
+  Twisting is free.  Zero stiffnesses give the flexible model exactly;
   infinite ones would give rigid clusters.  The default stiffnesses are numerical
   (the stiffest the time step integrates stably, see :func:`brownian`): real
   solid contacts are stiffer still.  Kernel :func:`polypack._kernels.bd.run_tangential`.
@@ -121,7 +123,7 @@ from .._util import as_seed_sequence, progress_bar, seed_record
 from ..errors import InfeasibleError, InvalidInputError, OverlapError
 from ..packing import Packing
 from ._capabilities import BrownianOptions
-from .dlvo import DLVOParameters, _terms, dlvo_extrema, dlvo_parameters
+from .dlvo import DLVOParameters, _terms, adhesion_force, dlvo_extrema, dlvo_parameters
 
 __all__ = ["brownian", "BrownianSimulation", "brownian_bonds", "BOND_MODELS", "HYDRODYNAMICS", "BOND_ESCAPE",
            "MAX_STEP_FRACTION", "OVERLAP_TOLERANCE", "relative_mobility", "bond_escape_time"]
@@ -148,6 +150,9 @@ ESCAPE_CHUNK = 0.02
 #: ``bonds="tangential"``: rolling-friction forces between silica microspheres are about 100
 #: times lower than their adhesion (pull-off) forces (Heim, Blum, Preuss & Butt 1999).
 ROLLING_TO_ADHESION = 0.01
+#: Named rules for ``rolling_moment`` besides a number: ``"dlvo"`` = ``ROLLING_TO_ADHESION * a * F_adh``
+#: with F_adh the pull-off force of the whole DLVO potential at contact (:func:`~polypack.generate.dlvo.adhesion_force`).
+ROLLING_MOMENT_RULES = ("dlvo",)
 #: Per-bond relaxation number ``k_s * mobility * dt`` of the default (numerical) sliding
 #: stiffness of ``bonds="tangential"``: a sphere with 10 bonds stays below the explicit
 #: Euler stability limit 2.
@@ -490,6 +495,18 @@ class BrownianSimulation:
         f_adh = p.hamaker * a / (12.0 * p.minimum_separation ** 2) if p.minimum_separation > 0 else math.inf
         if rolling_moment is None:
             mc = ROLLING_TO_ADHESION * a * f_adh
+        elif isinstance(rolling_moment, str):
+            if rolling_moment not in ROLLING_MOMENT_RULES:
+                raise InvalidInputError(f"rolling_moment={rolling_moment!r}: must be a number (N m), inf or "
+                                        + ", ".join(map(repr, ROLLING_MOMENT_RULES)))
+            # "dlvo": the pull-off force of the whole DLVO potential at contact (Derjaguin/DMT), double layer included
+            f_adh = adhesion_force(p)
+            if not f_adh > 0.0:
+                raise InvalidInputError(
+                    f"rolling_moment={rolling_moment!r}: the DLVO force at minimum_separation = {p.minimum_separation:g} m "
+                    f"is repulsive ({-f_adh:.3g} N) at surface_potential = {p.surface_potential:g} V: no adhesion to "
+                    "roll against; give a number")
+            mc = ROLLING_TO_ADHESION * a * f_adh
         else:
             try:
                 mc = float(rolling_moment)
@@ -506,7 +523,9 @@ class BrownianSimulation:
         return {"sliding_stiffness": ks * kT / (a * a), "rolling_stiffness": kr * kT, "rolling_moment": mc,
                 "rolling_moment_kT": mc / kT, "rolling_yield_displacement": xmax * a if math.isfinite(xmax) else math.inf,
                 "sliding_stiffness_reduced": ks, "rolling_stiffness_reduced": kr,
-                "adhesion_force": f_adh, "default_moment": rolling_moment is None}
+                "adhesion_force": f_adh, "default_moment": rolling_moment is None,
+                "moment_rule": ("van_der_waals" if rolling_moment is None else
+                                rolling_moment if isinstance(rolling_moment, str) else "given")}
 
     # ------------------------------------------------------------------ running
     @property
@@ -875,11 +894,15 @@ def brownian(
         the Dominik–Tielens rolling displacement in radii); default ``4 k_s a²``,
         so that moving a bonded sphere around its partner costs the same by pure
         sliding or pure rolling.
-    rolling_moment : float, optional
+    rolling_moment : float or "dlvo", optional
         ``bonds="tangential"``: critical rolling moment (N m) beyond which rolling is
         plastic (``inf``: elastic only).  Default ``a F_adh / 100`` (Heim et al.
         1999) with ``F_adh = A a / (12 h_min²)`` the model's van der Waals force at
-        its minimum separation.
+        its minimum separation.  ``"dlvo"``: the same ratio with ``F_adh`` the
+        pull-off force of the whole DLVO potential at ``h_min``, double layer
+        included (:func:`polypack.generate.dlvo.adhesion_force`, the Derjaguin /
+        DMT force ``π a w``), so the moment falls with Ψ0 (docs/brownian.md, sixth
+        pass).
     hydrodynamics : {"free", "lubrication"}
         ``"free"`` (default): free-draining Ermak–McCammon dynamics with Stokes drag,
         the seed's model ("the frictional Stokes' drag force and a random Brownian

@@ -76,6 +76,7 @@ __all__ = [
     "dlvo_parameters",
     "dlvo_potential",
     "dlvo_force",
+    "adhesion_force",
     "dlvo_extrema",
     "secondary_minimum_onset",
     "plot_dlvo",
@@ -253,17 +254,31 @@ def _resolve(surface_potential, kw) -> DLVOParameters:
 def _terms(r, p: DLVOParameters):
     """Energy (J) and force (N, positive = repulsive) at centre distances ``r``."""
     r = np.asarray(r, dtype=np.float64)
-    a, A = p.radius, p.hamaker
+    a = p.radius
     h = r - 2.0 * a
     inside = h < p.minimum_separation
     # van der Waals, evaluated at max(h, h_min)
     rv = np.where(inside, 2.0 * a + p.minimum_separation, r)
+    v_vdw, dv_vdw = _vdw(rv, p)
+    dv_vdw = np.where(inside, 0.0, dv_vdw)
+    v_el, dv_el = _double_layer(r, h, p)
+    return v_vdw + v_el, -(dv_vdw + dv_el)
+
+
+def _vdw(rv, p: DLVOParameters):
+    """Exact Hamaker energy (J) of equal spheres and its derivative dV/dr (N) at centre distances ``rv``."""
+    a, A = p.radius, p.hamaker
     r2 = rv * rv
     s2 = r2 - 4.0 * a * a
     a2 = a * a
     v_vdw = -(A / 6.0) * (2.0 * a2 / s2 + 2.0 * a2 / r2 + np.log(s2 / r2))
     dv_vdw = -(A / 6.0) * (-4.0 * a2 * rv / (s2 * s2) - 4.0 * a2 / (r2 * rv) + 2.0 * rv / s2 - 2.0 / rv)
-    dv_vdw = np.where(inside, 0.0, dv_vdw)
+    return v_vdw, dv_vdw
+
+
+def _double_layer(r, h, p: DLVOParameters):
+    """Double-layer energy (J) and its derivative dV/dr (N) at centre distances ``r`` (gaps ``h``)."""
+    a = p.radius
     eps = p.relative_permittivity * VACUUM_PERMITTIVITY
     kappa = p.kappa
     psi = p.surface_potential
@@ -281,7 +296,7 @@ def _terms(r, p: DLVOParameters):
         ex = np.exp(-kappa * h)
         v_el = pref * ex / r
         dv_el = pref * ex * (-kappa / r - 1.0 / (r * r))
-    return v_vdw + v_el, -(dv_vdw + dv_el)
+    return v_el, dv_el
 
 
 def dlvo_potential(r, surface_potential=0.0, **parameters):
@@ -323,6 +338,55 @@ def dlvo_force(r, surface_potential=0.0, **parameters):
     p = _resolve(surface_potential, parameters)
     _, f = _terms(r, p)
     return f if np.ndim(r) else float(f)
+
+
+def adhesion_force(surface_potential=0.0, **parameters) -> float:
+    """Pull-off force (N, positive = attractive) of a pair held at the closest approach.
+
+    The attractive DLVO force of the whole potential (van der Waals and double layer) at the
+    surface separation ``h_c = minimum_separation``, ``F_adh = dV/dh`` at ``h_c``
+    (:func:`dlvo_force` is ``-dV/dr``; here it is evaluated from the outside, where the van
+    der Waals term is not clamped).  In the Derjaguin approximation the force between equal
+    spheres is ``π a W(h)``, ``W`` the interaction energy per unit area of two flat plates, so
+    ``F_adh = π a w = 2π R* w`` with ``R* = a/2`` and ``w = -W(h_c)`` the work of adhesion of
+    the surfaces at contact: the Derjaguin-Muller-Toporov pull-off force of rigid spheres.
+    With the Hamaker term alone it tends to ``A a / (12 h_c²)`` for ``h_c << a``; the
+    double layer (HHF form) lowers it by ``2π ε a Ψ0² κ / (1 + exp(κ h_c))``.
+
+    Parameters
+    ----------
+    surface_potential : float or DLVOParameters
+        Ψ0 in volts, or a parameter object from :func:`dlvo_parameters`.
+    **parameters
+        Keyword parameters of :func:`dlvo_parameters`.
+
+    Returns
+    -------
+    float
+        ``F_adh`` in newtons; zero or negative when the double layer outweighs the van der
+        Waals attraction at contact (no adhesive primary minimum at ``h_c``).
+
+    Raises
+    ------
+    InvalidInputError
+        If ``minimum_separation`` is 0 (the van der Waals force diverges at contact).
+
+    References
+    ----------
+    Derjaguin, B. V., Muller, V. M. & Toporov, Yu. P., J. Colloid Interface Sci. 53, 314 (1975);
+    Israelachvili, J. N., *Intermolecular and Surface Forces*, 3rd ed. (2011), §11.6 and §13.6.
+    DLVO model: §2.2 of 003_873b69fc71c74cf6.txt.
+    """
+    p = _resolve(surface_potential, parameters)
+    hc = p.minimum_separation
+    if not hc > 0.0:
+        raise InvalidInputError(
+            f"minimum_separation={hc!r}: the adhesion force needs a closest approach > 0 "
+            "(the van der Waals force diverges at contact)")
+    rc = np.array([2.0 * p.radius + hc])
+    _, dv_vdw = _vdw(rc, p)
+    _, dv_el = _double_layer(rc, np.array([hc]), p)
+    return float(dv_vdw[0] + dv_el[0])
 
 
 @dataclass(frozen=True)
