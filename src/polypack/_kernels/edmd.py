@@ -44,11 +44,37 @@ import math
 from enum import IntEnum
 
 import numpy as np
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 from .cells import min_image, pairs_within, stable_argsort
 
 INF = np.inf
+
+
+@intrinsic
+def _prefetch_row(typingctx, arr, row):
+    """Hint the processor to load the cache line of ``arr[row, 0]`` (LLVM ``llvm.prefetch``: read,
+    keep in all cache levels); no effect on any value."""
+    sig = types.void(arr, row)
+
+    def codegen(context, builder, signature, args):
+        aryty, rowty = signature.args
+        ary = context.make_array(aryty)(context, builder, args[0])
+        r = context.cast(builder, args[1], rowty, types.intp)
+        ptr = cgutils.get_item_pointer2(context, builder, data=ary.data, shape=cgutils.unpack_tuple(builder, ary.shape),
+                                        strides=cgutils.unpack_tuple(builder, ary.strides), layout=aryty.layout,
+                                        inds=[r, context.get_constant(types.intp, 0)], wraparound=False)
+        i8p = ir.IntType(8).as_pointer()
+        i32 = ir.IntType(32)
+        name = "llvm.prefetch.p0" if str(i8p) == "ptr" else "llvm.prefetch.p0i8"  # opaque or typed pointers
+        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(ir.VoidType(), [i8p, i32, i32, i32]), name)
+        builder.call(fn, [builder.bitcast(ptr, i8p), i32(0), i32(3), i32(1)])
+        return context.get_dummy_value()
+
+    return sig, codegen
 
 
 
@@ -440,8 +466,14 @@ def _predict(i, t, P, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c):
     """Sync sphere ``i`` to ``t`` and schedule its next event (collision or shell exit).
 
     ``P`` holds one 64-byte record per sphere (position, velocity, own time, growth
-    speed: columns ``R_X..R_G``), so a neighbour costs one cache line, not four.
+    speed: columns ``R_X..R_G``), so a neighbour costs one cache line, not four.  The
+    neighbours' lines are requested first, all at once (:func:`_prefetch_row`), so that their
+    cache misses overlap instead of following one another through the pair loop's branches.
     """
+    base = off[i]
+    nn_i = nn[i]
+    for k in range(base, base + nn_i):
+        _prefetch_row(P, nbr[k])
     dt = t - P[i, R_T]
     xi0 = P[i, 0] + P[i, 3] * dt
     xi1 = P[i, 1] + P[i, 4] * dt
@@ -461,8 +493,7 @@ def _predict(i, t, P, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c):
     d2 = min_image(xi2 - xb[i, 2], box[2])
     best = exit_time(d0, d1, d2, vi0, vi1, vi2, gi, rho[i] * (1.0 - 1e-12) - gi * t)
     partner = -1
-    base = off[i]
-    for k in range(base, base + nn[i]):
+    for k in range(base, base + nn_i):
         j = nbr[k]
         dtj = t - P[j, R_T]
         dx = min_image(P[j, 0] + P[j, 3] * dtj - xi0, box[0])
