@@ -591,6 +591,13 @@ MUTANTS += [
     Mutant("k-bd-flag-mark", K + "bd.py",
            "        if mark[pj[k]] == i:\n", "        if mark[pj[k]] >= 0:\n",
            ("tests/test_bd_kernel.py",), "wrong condition (partners of earlier spheres flagged as bonded)"),
+    # branch-free projection correction and movement tally (issue 32, 5 Dec)
+    Mutant("k-bd-proj-tether-sign", K + "bd.py",
+           "corr = max(2.0 - r, 0.0) + min(cap_lim - r, 0.0)", "corr = max(2.0 - r, 0.0) - min(cap_lim - r, 0.0)",
+           ("tests/test_bd_kernel.py",) + T_BD, "wrong sign (stretched bonds pushed further apart)"),
+    Mutant("k-bd-proj-tally-j", K + "bd.py",
+           "tally = max(tally, max(moved[i], moved[j]))", "tally = max(tally, moved[i])",
+           ("tests/test_bd_kernel.py",), "dropped term (second sphere's movement not in the tally: unsafe skips)"),
     # reversible tangential gels (issue 32, fifth pass): the rolling yield of the model the test pins
     Mutant("g-bd-rolling-moment-scale", G + "brownian.py",
            "m = mc / kT / kr if kr > 0 else math.inf",

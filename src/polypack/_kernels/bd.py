@@ -360,7 +360,7 @@ def _build(pos, box, params, adj, deg, ncell):
 
 #: Extra gap (radii) within which an unbonded pair seen in a full projection sweep is kept for
 #: the next sweeps of the step (:func:`_project`); any value gives the same result, bit for bit.
-NEAR_MARGIN = 0.1
+NEAR_MARGIN = 0.2
 
 
 @njit(cache=True)
@@ -436,16 +436,14 @@ def _project(pos, box, params, state, istate, pi, pj, flag, img, bonds, adj, deg
                 adj[j, deg[j]] = i
                 deg[j] += 1
                 flag[k] = 1
+            # overlap (r < 2) or stretched bond (r > cap_lim; with overlap_only only r < 2 gets here);
+            # branch-free: after the first sweep in-shell pairs are about as frequent as out-of-shell
+            # ones, and the branch was mispredicted half the time (a zero correction moves nothing,
+            # x - 0 * d = x, so the positions are those of the branches bit for bit)
             r = np.sqrt(r2)
-            if r < 2.0:
-                corr = 2.0 - r
-            elif r > cap_lim and not overlap_only:
-                corr = cap_lim - r
-            else:
-                continue
+            corr = max(2.0 - r, 0.0) + min(cap_lim - r, 0.0)
             c = abs(corr)
-            if c > worst:
-                worst = c
+            worst = max(worst, c)
             s = 0.5 * corr / max(r, 1e-12)
             pos[i, 0] -= s * dx
             pos[i, 1] -= s * dy
@@ -456,10 +454,7 @@ def _project(pos, box, params, state, istate, pi, pj, flag, img, bonds, adj, deg
             if collect or use_near:
                 moved[i] += 0.5 * c
                 moved[j] += 0.5 * c
-                if moved[i] > tally:
-                    tally = moved[i]
-                if moved[j] > tally:
-                    tally = moved[j]
+                tally = max(tally, max(moved[i], moved[j]))
                 if use_near and tally >= half_margin:
                     # skipped pairs may act from here on: the rest of this sweep is a full one
                     use_near = False
