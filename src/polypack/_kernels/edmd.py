@@ -17,6 +17,11 @@ Data layout (flat arrays, C-like):
   min-heap whose slots hold the event times themselves (``hk``, sphere ``hi``,
   slot of a sphere ``hpos``): the four children of a slot share a cache line
   and a sift never chases a pointer to read a key;
+* in the event loop each sphere's state is two 64-byte records: its motion ``P``
+  (position, velocity, own time, growth speed) and ``E`` (shell, event, list slab,
+  counters, heap slot; columns ``E_*``, ``I_*``), and the heap's keys and spheres
+  are interleaved (``HEAP_ROW0``); the helpers index strided views of them as if
+  they were separate arrays;
 * per-sphere shells: sphere ``i`` stays inside the ball ``(xb_i, rho_i)`` until
   its shell-exit event (exact time from a quadratic), with ``rho_i = g_i D(t)``
   at the build time ``t`` (a margin proportional to the radius, see
@@ -375,14 +380,34 @@ R_V = 3
 R_T = 6
 R_G = 7
 N_REC = 8
+# the second record of a sphere, ``E`` (8 doubles, one cache line): what an event at the sphere
+# reads and writes besides its motion.  Float columns: shell centre 0..2, shell radius, time of the
+# scheduled event; int32 columns of the view ``E.view(np.int32)`` (16 per row): slab offset and
+# length of the neighbour list, scheduled partner and its collision count at prediction time, the
+# sphere's collision count, its slot in the event heap.  The event loop's helpers see them as
+# strided 1D views (``xb = E[:, E_XB:E_XB + 3]``, ``off = Ei[:, I_OFF]``, ...): the code is that of
+# separate arrays, the memory one line per sphere instead of nine (issue 33: cache misses).
+E_XB = 0
+E_RHO = 3
+E_T = 4
+I_OFF = 10
+I_NN = 11
+I_P = 12
+I_C = 13
+I_CNT = 14
+I_HPOS = 15
+# the event heap: slot ``s`` in row ``s + HEAP_ROW0`` of an (n + HEAP_ROW0 + 1, 2) float64 array
+# (key in column 0, sphere in column 1 of its int64 view); with 16-byte rows from a 64-byte
+# boundary the four children ``4s+1 .. 4s+4`` of a slot fill one cache line, keys and spheres alike
+HEAP_ROW0 = 3
 
 
 @njit(cache=True)
-def _records(n):
-    """An (n, N_REC) float64 array whose rows start on 64-byte boundaries (one cache line each)."""
-    buf = np.empty(N_REC * (n + 1))
+def _aligned_rows(n, m):
+    """An (n, m) float64 array whose row ``r`` starts ``8 m r`` bytes after a 64-byte boundary."""
+    buf = np.empty(m * n + 8)
     first = ((64 - buf.ctypes.data % 64) % 64) // 8
-    return buf[first:first + N_REC * n].reshape((n, N_REC))
+    return buf[first:first + m * n].reshape((n, m))
 
 
 @njit(cache=True)
@@ -958,7 +983,7 @@ def _event_loop(P, box, state, hist, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_
             break
         events += 1
         t = te
-        j = ev_p[i]
+        j = np.int64(ev_p[i])  # int32 in the record
         if j < 0:
             # shell exit: new shell and neighbour list for sphere i only
             dt = t - P[i, R_T]
@@ -1118,15 +1143,26 @@ def run_chunk(x, v, g, box, state, params, hist):
     tl = np.empty(n)
     for i in range(n):
         tl[i] = t
-    cnt = np.zeros(n, np.int64)
-    ev_t = np.empty(n)
-    ev_p = np.empty(n, np.int64)
-    ev_c = np.empty(n, np.int64)
-    hk = np.empty(n)
-    hi = np.empty(n, np.int64)
-    hpos = np.empty(n, np.int64)
-    xb = np.empty((n, 3))
-    rho = np.empty(n)
+    # per-sphere event and shell state in one record per sphere (``E``, columns ``E_*`` and
+    # ``I_*``), the heap's keys and spheres side by side; the helpers see strided views
+    E = _aligned_rows(n + 1, 8)
+    Ei = E.view(np.int32)
+    xb = E[:n, E_XB:E_XB + 3]
+    rho = E[:n, E_RHO]
+    ev_t = E[:n, E_T]
+    off = Ei[:, I_OFF]
+    nn = Ei[:n, I_NN]
+    ev_p = Ei[:n, I_P]
+    ev_c = Ei[:n, I_C]
+    cnt = Ei[:n, I_CNT]
+    hpos = Ei[:n, I_HPOS]
+    for i in range(n + 1):
+        for k in range(16):
+            Ei[i, k] = 0
+    H = _aligned_rows(n + HEAP_ROW0 + 1, 2)
+    hk = H[HEAP_ROW0:HEAP_ROW0 + n, 0]
+    hi = H.view(np.int64)[HEAP_ROW0:HEAP_ROW0 + n, 1]
+    rho_o = np.empty(n)  # shell radii in the caller's numbering (global rebuilds)
     level, nlev, gmax_lv = _levels(g)
     gmax = _largest(g)
     g_margin = params[P_MARGIN_CAP] * _median(g)
@@ -1143,15 +1179,13 @@ def run_chunk(x, v, g, box, state, params, hist):
     need_rebuild = True
     need_sync = False
     since_sync = 0
-    off = np.zeros(n + 1, np.int64)
-    nn = np.zeros(n, np.int64)
     nbr = np.zeros(0, np.int32)
     pad = np.int64(8)  # an int64, not the literal 8: build_lists compiles once
     rho_cap = 0.249 * min(box[0], min(box[1], box[2]))
     rho_max_lv = np.zeros(nlev)
     fs = np.empty(5)
     ks = np.empty(7, np.int64)
-    P = _records(n)
+    P = _aligned_rows(n, N_REC)
     # the event loop numbers the spheres along a space-filling curve (renewed at each global
     # rebuild, where every list, shell and event is made anew): its sphere i is the caller's
     # orig[i], the caller's k is its new[k]; x, v, tl and g stay in the caller's numbering
@@ -1184,7 +1218,6 @@ def run_chunk(x, v, g, box, state, params, hist):
                 D = shell_reach(t, t_ref, alpha, dilute)
                 for lv in range(nlev):
                     rho_max_lv[lv] = 0.0
-                rho_o = ev_t  # scratch (the predictions below overwrite it): shell radii, caller's numbering
                 for k in range(n):
                     r = _shell_radius(g[k], t, D, g_margin, rho_cap)
                     rho_o[k] = r
@@ -1194,7 +1227,13 @@ def run_chunk(x, v, g, box, state, params, hist):
                     rho[i] = r
                     if r > rho_max_lv[level[k]]:
                         rho_max_lv[level[k]] = r
-                off, nn, nbr = build_lists(x, rho_o, box, lev, nlev, pad, new)
+                off_b, nn_b, nbr = build_lists(x, rho_o, box, lev, nlev, pad, new)
+                if off_b[n] > 2147483647:
+                    raise ValueError("neighbour lists above 2^31 entries (int32 slab offsets)")
+                for i in range(n):
+                    off[i] = off_b[i]
+                    nn[i] = nn_b[i]
+                off[n] = off_b[n]
                 nc, coff, head, nxt, prv, cell = _grid_build(xb, lev, box, rho_max_lv, nlev, n, new)
                 state[S_REBUILDS] += 1
             _to_records(P, x, v, tl, g, orig)
