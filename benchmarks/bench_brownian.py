@@ -6,7 +6,9 @@ Three parts (choose with --only):
   with Gaussian noise + ``pair_style table`` holding the same force table) on the
   same N, volume fraction, time step and configuration: a stable suspension with
   steep double-layer repulsion (no van der Waals, no bonds, so both codes do the
-  same work).  Also polypack's rate on a coagulating gel (with the bond projections).
+  same work).  Also polypack's rate on a coagulating gel (flexible bonds, with the bond
+  projections) and on the seed study's model A (tangential bonds, Kramers escape, 4 nm
+  contact, the largest step; ``MODEL_A``) after 1 a²/D0 of coagulation.
 * ``gel``: time to a stable gel of N spheres at Φ = 0.4 for one Ψ0 (target: N = 8000
   in under 30 minutes on one core).
 * ``series``: gels for Ψ0 = 0, 12, 13, 14, 15 mV: coordination, percolation and the
@@ -121,6 +123,8 @@ def part_rate(n, steps):
         res["lammps_error"] = repr(exc)
     # coagulating gel: with the capture/shell projections
     res["gel_rate"] = pp_gel_rate(n, min(steps, 2000))
+    # the seed study's model (tangential bonds, Kramers escape, 4 nm contact; docs/brownian.md "fifth pass")
+    res["gel_tangential_rate"], res["gel_tangential_info"] = pp_gel_tangential_rate(n, min(steps, 2000))
     return res
 
 
@@ -137,6 +141,39 @@ def pp_gel_rate(n, steps, psi=0.015):
     t0 = time.process_time()
     sim.run(steps)
     return n * steps / (time.process_time() - t0)
+
+
+#: Model A of docs/brownian.md ("fifth pass"): the reversible tangential gel of the seed study.
+MODEL_A = dict(bonds="tangential", bond_escape="kramers", minimum_separation=4e-9, bond_width=4e-9,
+               time_step=1.37e-5, rolling_moment=100 * 4.047e-21)
+
+
+def pp_gel_tangential_rate(n, steps, psi=0.015, warm_tau=1.0, seed=1):
+    """Particle-steps per CPU second of model A (``MODEL_A``) at Φ = 0.4, timed after ``warm_tau`` a²/D0.
+
+    The set-up and bond breaking of ``pp.brownian`` (its ``_Escape`` chunks, so the timing includes
+    the kernel calls between bond breaks and their list builds); returns ``(rate, info)``.
+    """
+    from polypack._util import as_seed_sequence
+    from polypack.generate import brownian as B
+
+    given = dict(B._DEFAULTS)
+    given.update(volume_fraction=0.4, surface_potential=psi, **MODEL_A)
+    c = B._check_brownian_args(n, given)
+    s_init, s_noise, s_escape = as_seed_sequence(seed).spawn(3)
+    pos = B._initial_positions(n, c.a, c.box_len, 2.0 * c.p.debye_length, s_init)
+    sim = B.BrownianSimulation(pos, c.box_len, c.p, time_step=MODEL_A["time_step"], bond_width=MODEL_A["bond_width"],
+                               seed=s_noise, bonds="tangential", rolling_moment=MODEL_A["rolling_moment"])
+    esc = B._Escape(sim, c.p, s_escape)
+    esc.run(int(round(warm_tau * c.tau / sim.time_step)))  # into the coagulating gel
+    r0, sw0 = sim.rebuilds, int(sim._istate[sim._bd.I_SWEEPS])
+    t0 = time.process_time()
+    esc.run(steps)
+    cpu = time.process_time() - t0
+    info = {"warm_tau": warm_tau, "steps": steps, "cpu": cpu, "ns_per_particle_step": cpu / (n * steps) * 1e9,
+            "coordination": sim.coordination, "rebuilds": sim.rebuilds - r0,
+            "sweeps_per_step": (int(sim._istate[sim._bd.I_SWEEPS]) - sw0) / steps, "escape_chunk": esc.chunk}
+    return n * steps / cpu, info
 
 
 def part_gel(n, psi_mv, seed, max_time_tau, bonds="flexible", **model):
@@ -196,7 +233,11 @@ def main(argv=None):
         print(f"rate N={r['n']}: polypack {r['polypack_rate']:.3g} particle-steps/s"
               + (f", LAMMPS {r['lammps_rate']:.3g}, ratio {r['ratio']:.2f}" if "ratio" in r else
                  f", LAMMPS failed: {r.get('lammps_error')}")
-              + f"; polypack coagulating gel {r['gel_rate']:.3g}", flush=True)
+              + f"; polypack coagulating gel {r['gel_rate']:.3g}; tangential+kramers gel (model A) "
+              f"{r['gel_tangential_rate']:.3g} ({r['gel_tangential_info']['ns_per_particle_step']:.0f} ns/particle-step, "
+              f"C = {r['gel_tangential_info']['coordination']:.2f})"
+              + (f", LAMMPS / model A {r['lammps_rate'] / r['gel_tangential_rate']:.2f}" if "ratio" in r else "")
+              + f"; load {open('/proc/loadavg').read().split()[0]}", flush=True)
     if "gel" in parts:
         g = part_gel(args.n, args.psi, args.seed, args.max_time, args.bonds, **model)
         out["gel"] = g
