@@ -7,7 +7,7 @@ Loads ``src/polypack/_kernels/bd.py`` of git revision REV as a second module and
 (issue32_bd_speed_state.py: tangential bonds, Kramers escape, 4 nm contact, t = 2 a²/D0,
 15 mV), and ``run`` on the stable suspension of bench_brownian.py's ``rate`` part,
 alternating old/new ``--reps`` times.  Prints ns per particle-step, the load average
-and whether both kernels left bit-identical positions.
+and whether both kernels left bit-identical positions (and anchors, orientations).
 """
 import argparse
 import importlib.util
@@ -50,7 +50,7 @@ def gel_runner(mod, sim, steps):
         anch, ori = sim._anchors.copy(), sim._orient.copy()
         t0 = time.process_time()
         mod.run_tangential(pos, *a, steps, anch, ori)
-        return time.process_time() - t0, pos
+        return time.process_time() - t0, np.concatenate([pos.ravel(), anch.ravel(), ori.ravel()])
     return go
 
 

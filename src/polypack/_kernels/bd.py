@@ -306,14 +306,18 @@ def _fill_verlet(pos, box, reach, ncell, cell_of, start, order, pi, pj, img):
                         dx = min_image(pos[j, 0] - xi0, box[0])
                         dy = min_image(pos[j, 1] - xi1, box[1])
                         dz = min_image(pos[j, 2] - xi2, box[2])
-                        if dx * dx + dy * dy + dz * dz <= lim2:
-                            if m < cap:
-                                pi[m] = i
-                                pj[m] = j
-                                img[m, 0] = _image_count(pos[j, 0] - xi0, box[0])
-                                img[m, 1] = _image_count(pos[j, 1] - xi1, box[1])
-                                img[m, 2] = _image_count(pos[j, 2] - xi2, box[2])
-                            m += 1
+                        # branch-free append (about one candidate in eight is kept: a branch on
+                        # it was mispredicted often); the slot past the kept ones is overwritten
+                        if m < cap:
+                            pi[m] = i
+                            pj[m] = j
+                        m += dx * dx + dy * dy + dz * dz <= lim2
+    for k in range(min(m, cap)):  # image counts of the kept pairs
+        i = pi[k]
+        j = pj[k]
+        img[k, 0] = _image_count(pos[j, 0] - pos[i, 0], box[0])
+        img[k, 1] = _image_count(pos[j, 1] - pos[i, 1], box[1])
+        img[k, 2] = _image_count(pos[j, 2] - pos[i, 2], box[2])
     return m
 
 
@@ -1514,17 +1518,6 @@ def _tangential_forces(pos, box, params, bonds, nb, anchors, force, torque):
             torque[j, 2] -= ks * (wx * dy - wy * dx)
 
 
-@njit(cache=True, inline="always")
-def _apply_rotation(rot, i, v, k):
-    """v[k, 0:3] <- rot[i] v[k, 0:3]."""
-    x = v[k, 0]
-    y = v[k, 1]
-    z = v[k, 2]
-    v[k, 0] = rot[i, 0, 0] * x + rot[i, 0, 1] * y + rot[i, 0, 2] * z
-    v[k, 1] = rot[i, 1, 0] * x + rot[i, 1, 1] * y + rot[i, 1, 2] * z
-    v[k, 2] = rot[i, 2, 0] * x + rot[i, 2, 1] * y + rot[i, 2, 2] * z
-
-
 @njit(cache=True)
 def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rng, nsteps, anchors,
                    orient):
@@ -1562,7 +1555,6 @@ def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncel
     force = np.zeros((n, 3), np.float64)
     torque = np.zeros((n, 3), np.float64)
     rot = np.zeros((n, 3, 3), np.float64)
-    rmat = np.zeros((3, 3), np.float64)
     for _step in range(nsteps):
         for i in range(n):
             for c in range(3):
@@ -1585,26 +1577,53 @@ def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncel
                     tx += rnoise * next_normal(rng, state)
                     ty += rnoise * next_normal(rng, state)
                     tz += rnoise * next_normal(rng, state)
-                _rotation(tx, ty, tz, rmat)
-                for p in range(3):
-                    for q in range(3):
-                        rot[i, p, q] = rmat[p, q]
-                _apply_rotation(rot, i, orient, i)
+                # the Rodrigues matrix of _rotation and its product with orient[i], written out in
+                # the same arithmetic (a helper's array arguments cost a reference count per sphere)
+                th = np.sqrt(tx * tx + ty * ty + tz * tz)
+                if th < 1e-300:
+                    r00 = r11 = r22 = 1.0
+                    r01 = r02 = r10 = r12 = r20 = r21 = 0.0
+                else:
+                    kx = tx / th
+                    ky = ty / th
+                    kz = tz / th
+                    c = np.cos(th)
+                    sn = np.sin(th)
+                    v = 1.0 - c
+                    r00 = c + kx * kx * v
+                    r01 = kx * ky * v - kz * sn
+                    r02 = kx * kz * v + ky * sn
+                    r10 = ky * kx * v + kz * sn
+                    r11 = c + ky * ky * v
+                    r12 = ky * kz * v - kx * sn
+                    r20 = kz * kx * v - ky * sn
+                    r21 = kz * ky * v + kx * sn
+                    r22 = c + kz * kz * v
+                rot[i, 0, 0] = r00
+                rot[i, 0, 1] = r01
+                rot[i, 0, 2] = r02
+                rot[i, 1, 0] = r10
+                rot[i, 1, 1] = r11
+                rot[i, 1, 2] = r12
+                rot[i, 2, 0] = r20
+                rot[i, 2, 1] = r21
+                rot[i, 2, 2] = r22
+                x = orient[i, 0]
+                y = orient[i, 1]
+                z = orient[i, 2]
+                orient[i, 0] = r00 * x + r01 * y + r02 * z
+                orient[i, 1] = r10 * x + r11 * y + r12 * z
+                orient[i, 2] = r20 * x + r21 * y + r22 * z
             nb = istate[I_NBONDS]
             for b in range(nb):
                 i = bonds[b, 0]
                 j = bonds[b, 1]
-                for c in range(3):
-                    x = anchors[b, c]
-                    y = anchors[b, 3 + c]
-                    rmat[0, c] = x
-                    rmat[1, c] = y
-                u0 = rmat[0, 0]
-                u1 = rmat[0, 1]
-                u2 = rmat[0, 2]
-                w0 = rmat[1, 0]
-                w1 = rmat[1, 1]
-                w2 = rmat[1, 2]
+                u0 = anchors[b, 0]
+                u1 = anchors[b, 1]
+                u2 = anchors[b, 2]
+                w0 = anchors[b, 3]
+                w1 = anchors[b, 4]
+                w2 = anchors[b, 5]
                 anchors[b, 0] = rot[i, 0, 0] * u0 + rot[i, 0, 1] * u1 + rot[i, 0, 2] * u2
                 anchors[b, 1] = rot[i, 1, 0] * u0 + rot[i, 1, 1] * u1 + rot[i, 1, 2] * u2
                 anchors[b, 2] = rot[i, 2, 0] * u0 + rot[i, 2, 1] * u1 + rot[i, 2, 2] * u2
