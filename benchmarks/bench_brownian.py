@@ -236,7 +236,7 @@ def main(argv=None):
               + f"; polypack coagulating gel {r['gel_rate']:.3g}; tangential+kramers gel (model A) "
               f"{r['gel_tangential_rate']:.3g} ({r['gel_tangential_info']['ns_per_particle_step']:.0f} ns/particle-step, "
               f"C = {r['gel_tangential_info']['coordination']:.2f})"
-              + (f", LAMMPS / model A {r['lammps_rate'] / r['gel_tangential_rate']:.2f}" if "ratio" in r else "")
+              + (f", model A / LAMMPS suspension {r['gel_tangential_rate'] / r['lammps_rate']:.2f}" if "ratio" in r else "")
               + f"; load {open('/proc/loadavg').read().split()[0]}", flush=True)
     if "gel" in parts:
         g = part_gel(args.n, args.psi, args.seed, args.max_time, args.bonds, **model)
