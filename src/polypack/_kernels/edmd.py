@@ -486,19 +486,27 @@ def _curve_order(x, box, orig, new):
         new[o[i]] = i
 
 
+@njit(cache=True, _nrt=False, inline="always")
+def _prefetch_neighbours(i, P, off, nn, nbr):
+    """Request the records ``P`` of all neighbours of ``i`` at once (:func:`_prefetch_row`), so
+    that their cache misses overlap instead of following one another through the pair loop's
+    branches (a mispredicted branch discards the loads issued after it)."""
+    base = off[i]
+    for k in range(base, base + nn[i]):
+        _prefetch_row(P, nbr[k])
+
+
 @njit(cache=True, _nrt=False)  # no reference counting (see _event_loop)
 def _predict(i, t, P, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c):
     """Sync sphere ``i`` to ``t`` and schedule its next event (collision or shell exit).
 
     ``P`` holds one 64-byte record per sphere (position, velocity, own time, growth
-    speed: columns ``R_X..R_G``), so a neighbour costs one cache line, not four.  The
-    neighbours' lines are requested first, all at once (:func:`_prefetch_row`), so that their
-    cache misses overlap instead of following one another through the pair loop's branches.
+    speed: columns ``R_X..R_G``), so a neighbour costs one cache line, not four; the
+    neighbours' records are requested first (:func:`_prefetch_neighbours`).
     """
+    _prefetch_neighbours(i, P, off, nn, nbr)
     base = off[i]
     nn_i = nn[i]
-    for k in range(base, base + nn_i):
-        _prefetch_row(P, nbr[k])
     dt = t - P[i, R_T]
     xi0 = P[i, 0] + P[i, 3] * dt
     xi1 = P[i, 1] + P[i, 4] * dt
@@ -1009,7 +1017,10 @@ def _event_loop(P, box, state, hist, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_
             _predict(i, t, P, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
             _heap_update(hk, hi, hpos, i, ev_t[i], n)
             continue
-        # valid collision of i and j at time t
+        # valid collision of i and j at time t; the neighbours of both are requested now, so
+        # that the misses of j's list and records overlap with i's prediction
+        _prefetch_neighbours(i, P, off, nn, nbr)
+        _prefetch_neighbours(j, P, off, nn, nbr)
         for p in (i, j):
             dt = t - P[p, R_T]
             for k in range(3):
