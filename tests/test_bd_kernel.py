@@ -297,11 +297,11 @@ def test_ziggurat_normals_are_standard_normal():
 
 
 @pytest.mark.parametrize("ncell", [(5, 4, 6), (3, 3, 3), (1, 2, 7), (7, 9, 8)])
-def test_verlet_list_is_pairs_within_in_its_order_with_flags_and_image_counts(ncell):
+def test_verlet_list_is_pairs_within_by_i_then_j_with_flags_and_image_counts(ncell):
     """bd._build (cells enumerated in place, scan stopped at j >= i, bonded flags from a per-sphere mark):
-    the pairs and order of cells.pairs_within on unwrapped positions (some several boxes away), in grids
-    with wrapped, fully scanned (2 r + 1 >= ncell) and single-cell axes; flags are the bonded pairs of a
-    random bond list, image counts give the minimum image."""
+    the pairs of cells.pairs_within, ordered by i then j, on unwrapped positions (some several boxes away),
+    in grids with wrapped, fully scanned (2 r + 1 >= ncell) and single-cell axes; flags are the bonded
+    pairs of a random bond list, image counts give the minimum image."""
     from polypack._kernels.cells import min_image, pairs_within
 
     rng = np.random.default_rng(sum(ncell))
@@ -323,10 +323,68 @@ def test_verlet_list_is_pairs_within_in_its_order_with_flags_and_image_counts(nc
         adj[b, deg[b]] = a
         deg[b] += 1
     pi, pj, flag, img = bd._build(pos, box, p, adj, deg, nc)
-    np.testing.assert_array_equal(pi, ri)
-    np.testing.assert_array_equal(pj, rj)
+    key = np.lexsort((rj, ri))  # by i, then j
+    np.testing.assert_array_equal(pi, ri[key])
+    np.testing.assert_array_equal(pj, rj[key])
     np.testing.assert_array_equal(flag, [tuple(sorted(x)) in bonded for x in zip(pi, pj)])
     for k in range(pi.size):
         for c in range(3):
             d = pos[pj[k], c] - pos[pi[k], c]
             assert d - box[c] * img[k, c] == pytest.approx(min_image(d, box[c]), abs=1e-9)
+
+
+@pytest.mark.parametrize("bonds", ["flexible", "tangential", "rigid", "lubrication"])
+def test_trajectory_does_not_depend_on_skin_cell_grid_or_rebuild_times(bonds):
+    """The Verlet list is ordered by (i, j), so the pairs that act meet the force loop and the projections
+    in the same order whatever the skin, the cell grid and the steps the list was rebuilt at: 200-sphere
+    15 mV gels (4 nm contact, the largest step) with skins 0.3, 0.5 and 0.9 a (rebuild counts differing
+    several-fold) and a coarser cell grid end bit for bit at the same positions."""
+    from polypack.generate import brownian as B
+
+    p = pp_dlvo(0.015, minimum_separation=4e-9)
+    n = 200
+    L = p.radius * (4 * n * np.pi / (3 * 0.4)) ** (1 / 3)
+    pos0 = B._initial_positions(n, p.radius, L, 2 * p.debye_length, 3)
+    kw = dict(time_step=1.37e-5, bond_width=4e-9, seed=7)
+    if bonds == "lubrication":
+        kw.update(hydrodynamics="lubrication")
+    else:
+        kw.update(bonds=bonds)
+    out, rebuilds = [], []
+    for skin, coarse in ((0.3, False), (0.5, False), (0.9, False), (0.5, True)):
+        sim = B.BrownianSimulation(pos0, L, p, skin=skin, **kw)
+        if coarse:
+            sim._ncell = np.maximum(sim._ncell // 2, 1)
+        sim.run(400)
+        out.append(np.concatenate([sim.positions.ravel(), sim.orientations.ravel()]))
+        rebuilds.append(sim.rebuilds)
+        assert sim.n_bonds > 10
+    assert rebuilds[0] > 2 * rebuilds[2] > 0, rebuilds
+    for o in out[1:]:
+        np.testing.assert_array_equal(o, out[0])
+
+
+def pp_dlvo(psi, **kw):
+    import polypack as pp
+
+    return pp.generate.dlvo_parameters(psi, **kw)
+
+
+def test_default_skin_grows_with_the_step_within_the_half_box():
+    """BrownianSimulation's default skin: 0.4 a at the default step, 30 rms steps at the largest one
+    (the rebuild interval), but never past half the box (20 spheres: L/2 = 2.97 a, cutoff 2.5 a)."""
+    from polypack.generate import brownian as B
+
+    p = pp_dlvo(0.015, minimum_separation=4e-9)
+    skins = {}
+    for n in (20, 200):
+        L = p.radius * (4 * n * np.pi / (3 * 0.4)) ** (1 / 3)
+        pos = B._initial_positions(n, p.radius, L, 2 * p.debye_length, 1)
+        for dt in (None, 1.37e-5):
+            sim = B.BrownianSimulation(pos, L, p, time_step=dt, bond_width=4e-9)
+            skins[n, dt] = (sim._params[bd.P_SKIN], 30 * sim.rms_step / p.radius, 0.5 * L / p.radius - 2.5)
+    assert skins[200, None][0] == 0.4 and skins[20, None][0] == 0.4
+    s, steps30, room = skins[200, 1.37e-5]
+    assert s == pytest.approx(steps30) and 0.5 < s < 0.7
+    s, steps30, room = skins[20, 1.37e-5]
+    assert room < steps30 and s == pytest.approx(room)

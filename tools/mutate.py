@@ -606,6 +606,13 @@ MUTANTS += [
            "                orient[i, 1] = r10 * x + r11 * y + r12 * z\n",
            "                orient[i, 1] = r01 * x + r11 * y + r12 * z\n",
            ("tests/test_brownian_tangential.py",), "wrong index (body axis rotated by the transpose's row)"),
+    Mutant("k-bd-verlet-order", K + "bd.py",
+           "            while b >= m0 and pj[b] > v:\n", "            while b > m0 and pj[b] > v:\n",
+           ("tests/test_bd_kernel.py",), "off-by-one (a sphere's first pair never sorted: order by cells again)"),
+    Mutant("g-bd-default-skin", G + "brownian.py",
+           "skin = max(0.4, min(30.0 * rms / a, 0.5 * bx.min() / a - rc))",
+           "skin = max(0.4, 30.0 * rms / a)",
+           ("tests/test_bd_kernel.py", "tests/test_brownian.py"), "dropped bound (skin beyond the half box)"),
     # reversible tangential gels (issue 32, fifth pass): the rolling yield of the model the test pins
     Mutant("g-bd-rolling-moment-scale", G + "brownian.py",
            "m = mc / kT / kr if kr > 0 else math.inf",

@@ -41,9 +41,10 @@ with ``F`` the total force in units of ``kT/a``, followed by constraint projecti
 
 ``P_R_CUT <= 0`` means independent spheres (no list is built).  Neighbours come from
 a Verlet list (centre distance ``P_R_CUT + P_SKIN``; the pairs of
-:func:`polypack._kernels.cells.pairs_within`, in its order, built by :func:`_verlet_pairs`
-with each pair's periodic image count, so the hot loops apply the minimum image without
-branches) rebuilt when a sphere has moved more than half the skin.  The projection sweeps
+:func:`polypack._kernels.cells.pairs_within` ordered by ``i`` then ``j``, built by
+:func:`_verlet_pairs` with each pair's periodic image count, so the hot loops apply the minimum
+image without branches) rebuilt when a sphere has moved more than half the skin; the trajectory
+does not depend on the skin, the cell grid or the rebuild times.  The projection sweeps
 after the first of a step visit only the pairs that can act (:func:`_project`; same
 result bit for bit).  Random numbers: xoshiro256** with an explicit ``uint64[4]``
 state and ziggurat normals (:func:`next_normal`), so a run continues bit for bit across
@@ -272,7 +273,9 @@ def _fill_verlet(pos, box, reach, ncell, cell_of, start, order, pi, pj, img):
     order, enumerated in place with the periodic wrap as one comparison per axis (the ~40 Python
     modulos and three work arrays per sphere of ``cells_in_reach`` took most of a rebuild); within
     a cell the spheres are in increasing index (:func:`~polypack._kernels.cells.build_cells`), so
-    the scan stops at the first ``j >= i``.  Pairs and order are those before, bit for bit.
+    the scan stops at the first ``j >= i``.  Each sphere's pairs are then sorted by ``j``
+    (insertion sort of a handful), so the list order is that of the pairs themselves, not of
+    the cells their spheres were in at the build.
     """
     cap = pi.shape[0]
     cl = cell_lengths(box, ncell)
@@ -285,6 +288,7 @@ def _fill_verlet(pos, box, reach, ncell, cell_of, start, order, pi, pj, img):
     lim2 = reach * reach
     m = 0
     for i in range(pos.shape[0]):
+        m0 = m
         ic = cell_of[i]
         cz = ic % n2
         cy = (ic // n2) % n1
@@ -312,6 +316,13 @@ def _fill_verlet(pos, box, reach, ncell, cell_of, start, order, pi, pj, img):
                             pi[m] = i
                             pj[m] = j
                         m += dx * dx + dy * dy + dz * dz <= lim2
+        for a in range(m0 + 1, min(m, cap)):  # the pairs of i by increasing j
+            v = pj[a]
+            b = a - 1
+            while b >= m0 and pj[b] > v:
+                pj[b + 1] = pj[b]
+                b -= 1
+            pj[b + 1] = v
     for k in range(min(m, cap)):  # image counts of the kept pairs
         i = pi[k]
         j = pj[k]
@@ -325,8 +336,12 @@ def _fill_verlet(pos, box, reach, ncell, cell_of, start, order, pi, pj, img):
 def _verlet_pairs(pos, box, reach, ncell):
     """Pairs ``i > j`` within ``reach`` (minimum image) and their image counts ``(M, 3)``.
 
-    The pairs of :func:`~polypack._kernels.cells.pairs_within` for equal spheres, in its order
-    (by ``i``, then by the cells it visits), without its distance array and copies.
+    The pairs of :func:`~polypack._kernels.cells.pairs_within` for equal spheres, ordered by
+    ``i``, then by ``j`` (since 5 Dec 2026; before, by the cells ``i`` visits).  The order of the
+    pairs that act (within the cutoff, bonded, or within reach of capture or contact) is then the
+    same whatever the reach, the cell grid or the step the list was built at, so the forces and
+    the Gauss–Seidel projections, and with them the trajectory, do not depend on the skin, the
+    cell grid or the rebuild times, bit for bit.
     """
     cell_of, start, order = build_cells(pos, box, ncell)
     cap = max(16, 8 * pos.shape[0])

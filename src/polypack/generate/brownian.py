@@ -311,8 +311,10 @@ class BrownianSimulation:
         (0 = no cap).
     cutoff : float, optional
         Centre-distance cutoff of the DLVO force (m), default ``2.5 a``.
-    skin : float
-        Verlet-list skin in units of ``a``.
+    skin : float, optional
+        Verlet-list skin in units of ``a``; default ``max(0.4, min(30 rms / a, L/2a - cutoff/a))``
+        with ``rms`` the rms step per coordinate (large steps rebuild the list every ~10 steps at
+        0.4).  Trajectories do not depend on it (:func:`polypack._kernels.bd._verlet_pairs`).
     trap_stiffness : float
         Stiffness (N/m) of an optional harmonic trap holding each sphere near the box
         centre (validation; 0 = none).
@@ -331,7 +333,7 @@ class BrownianSimulation:
     """
 
     def __init__(self, positions, box, parameters: DLVOParameters, *, time_step=None, bond_width=1e-9,
-                 drift_cap=0.25, cutoff=None, skin=0.4, trap_stiffness=0.0, seed=None,
+                 drift_cap=0.25, cutoff=None, skin=None, trap_stiffness=0.0, seed=None,
                  max_bonds_per_particle=24, table_points=8192, max_sweeps=4, projection_tolerance=1e-7,
                  bonds="flexible", sliding_stiffness=None, rolling_stiffness=None, rolling_moment=None,
                  hydrodynamics="free", lubrication_range=None):
@@ -373,6 +375,8 @@ class BrownianSimulation:
         rc = _check_positive("cutoff", cutoff) / a
         if rc <= 2.0:
             raise InvalidInputError(f"cutoff={cutoff!r} m must exceed the contact distance 2a = {2 * a:g} m")
+        if skin is None:  # speed only: the trajectory is the same for any skin
+            skin = max(0.4, min(30.0 * rms / a, 0.5 * bx.min() / a - rc))
         skin = _check_positive("skin", skin)
         independent = p.hamaker == 0.0 and p.surface_potential == 0.0 and bond_width is None
         if rc + skin > 0.5 * bx.min() / a and not independent:
