@@ -320,6 +320,32 @@ def test_bundled_seed_study_makes_both_sets():
         assert ("shear" in d["analysis"]) == e.dynamic
 
 
+def test_bundled_reduced_joint_study_checks(capsys):
+    """examples/heterogeneity_reduced.toml (docs/brownian.md, "Joint study, reduced"): ``polypack run --check``
+    accepts it; adhesive VEM at four N_V/N and BD model A (tangential bonds, 100 kT rolling moment, 4 nm
+    contacts, Kramers escape, 150 a²/D0) at three Ψ0, N = 1000, P = 2, particle stiffnesses, no dynamic test."""
+    from polypack.cli import main
+
+    path = ROOT / "examples" / "heterogeneity_reduced.toml"
+    main(["run", str(path), "--check"])
+    assert "valid sweep of 2 sets, 7 values in all" in capsys.readouterr().out
+    sw, entries, _ = sweep_plan(path)
+    assert sw["report"] == "heterogeneity"
+    assert [e.value for e in entries if e.set == "vem"] == [0.125, 0.5, 1.0, 2.0]
+    assert [e.value for e in entries if e.set == "bd"] == [0.0, 0.012, 0.015]
+    for e in entries:
+        d = e.study.data
+        assert d["psd"]["n"] == 1000 and d["study"]["realizations"] == 2 and not e.dynamic
+        assert d["analysis"]["elastic"]["stiffness"] == "particle" and d["analysis"]["elastic"]["bonds"] == "distance"
+        pr = d["protocol"]
+        if e.set == "vem":
+            assert pr["restructure"] == "adhesive" and pr["stiffness"] == "particle"
+        else:
+            assert (pr["bonds"], pr["bond_escape"], pr["minimum_separation"]) == ("tangential", "kramers", 4e-9)
+            assert pr["rolling_moment"] / (1.380649e-23 * 293.15) == pytest.approx(100, rel=1e-3)
+            assert pr["min_time"] == pr["max_time"] == pytest.approx(150 * 0.0729148, rel=1e-4)
+
+
 def test_dynamic_gp_beside_the_static_one_from_the_records(tmp_path):
     """The report's dynamic G'p of a value: per structure the mean of its [analysis.shear] storage moduli
     over the directions (spread: their standard deviation); per row the mean over the structures that had
