@@ -61,8 +61,8 @@ INF = np.inf
 
 @intrinsic
 def _prefetch_row(typingctx, arr, row):
-    """Hint the processor to load the cache line of ``arr[row, 0]`` (LLVM ``llvm.prefetch``: read,
-    keep in all cache levels); no effect on any value."""
+    """Hint the processor to load the cache line of ``arr[row, 0, ...]`` (LLVM ``llvm.prefetch``:
+    read, keep in all cache levels); no effect on any value."""
     sig = types.void(arr, row)
 
     def codegen(context, builder, signature, args):
@@ -71,7 +71,8 @@ def _prefetch_row(typingctx, arr, row):
         r = context.cast(builder, args[1], rowty, types.intp)
         ptr = cgutils.get_item_pointer2(context, builder, data=ary.data, shape=cgutils.unpack_tuple(builder, ary.shape),
                                         strides=cgutils.unpack_tuple(builder, ary.strides), layout=aryty.layout,
-                                        inds=[r, context.get_constant(types.intp, 0)], wraparound=False)
+                                        inds=[r] + [context.get_constant(types.intp, 0)] * (aryty.ndim - 1),
+                                        wraparound=False)
         i8p = ir.IntType(8).as_pointer()
         i32 = ir.IntType(32)
         name = "llvm.prefetch.p0" if str(i8p) == "ptr" else "llvm.prefetch.p0i8"  # opaque or typed pointers
@@ -249,6 +250,11 @@ def _sift_down(hk, hi, hpos, k, n):
         c = 4 * k + 1
         if c >= n:
             break
+        # the children's children (16 slots, 4 cache lines) are requested before the choice
+        # among the children: the next level's keys are then on their way, not one miss per level
+        g = 4 * c + 1
+        for q in range(g, min(g + 16, n), 4):
+            _prefetch_row(hk, q)
         best = c
         bk = hk[c]
         e = min(c + 4, n)
