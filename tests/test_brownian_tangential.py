@@ -237,7 +237,7 @@ def test_dlvo_rolling_moment_follows_the_pull_off_force():
         validate({**base, "protocol": {"kind": "brownian", "bonds": "tangential", "rolling_moment": "vdw"}})
     with pytest.raises(InvalidInputError, match="^rolling_moment='Dlvo': allowed"):
         pp.brownian(40, bonds="tangential", rolling_moment="Dlvo")
-    with pytest.raises(InvalidInputError, match="rolling_moment='dlvo': the DLVO force .* is repulsive"):
+    with pytest.raises(InvalidInputError, match="rolling_moment='dlvo': the DLVO force .* is not attractive"):
         BrownianSimulation(pos, box, dlvo_parameters(0.1, minimum_separation=4e-9), bonds="tangential",
                            rolling_moment="dlvo", bond_width=4e-9)
 

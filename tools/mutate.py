@@ -586,8 +586,9 @@ MUTANTS += [
            ("tests/test_bd_kernel.py",), "off-by-one (periodic wrap of the cell index)"),
     Mutant("k-bd-reach-full", K + "bd.py",
            "    if 2 * r + 1 >= ncell:\n        return 0, ncell - 1, True\n",
-           "    if 2 * r + 1 > ncell:\n        return 0, ncell - 1, True\n",
-           ("tests/test_bd_kernel.py",), "off-by-one (axis scanned whole: cells visited in another order)"),
+           "    if 2 * r + 1 > ncell + 1:\n        return 0, ncell - 1, True\n",
+           ("tests/test_bd_kernel.py",), "off-by-one (an axis of 2r cells scanned by offsets: a cell visited twice, "
+                                         "its pairs listed twice)"),
     Mutant("k-bd-flag-mark", K + "bd.py",
            "        if mark[pj[k]] == i:\n", "        if mark[pj[k]] >= 0:\n",
            ("tests/test_bd_kernel.py",), "wrong condition (partners of earlier spheres flagged as bonded)"),

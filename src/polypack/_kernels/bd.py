@@ -427,7 +427,7 @@ def _project(pos, box, params, state, istate, pi, pj, flag, img, bonds, adj, deg
     ``near`` (M,) int64 and ``moved`` (N,) float64 are work arrays.
     """
     width = params[P_BOND_WIDTH]
-    cap_lim = 2.0 + width
+    cap_lim = 2.0 + max(width, 0.0)  # width < 0 (no bond shell given) counts as 0: corr below keeps its sign
     cap2 = cap_lim * cap_lim
     sweeps = int(params[P_SWEEPS])
     tol = params[P_PROJ_TOL]
@@ -1234,29 +1234,36 @@ def _rigid_capture(pos, box, params, istate, pi, pj, flag, bonds, adj, deg, lab,
 
 
 @njit(cache=True, inline="always")
-def _rotation(tx, ty, tz, out):
-    """Rotation matrix of the rotation vector (tx, ty, tz) (Rodrigues), written to ``out`` (3, 3)."""
+def _rodrigues(tx, ty, tz):
+    """The nine entries (row by row) of the rotation matrix of the rotation vector (tx, ty, tz)
+    (Rodrigues' formula); scalars in and out, so an inlined call costs no reference counts."""
     th = np.sqrt(tx * tx + ty * ty + tz * tz)
     if th < 1e-300:
-        for p in range(3):
-            for q in range(3):
-                out[p, q] = 1.0 if p == q else 0.0
-        return
+        return 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0
     kx = tx / th
     ky = ty / th
     kz = tz / th
     c = np.cos(th)
     s = np.sin(th)
     v = 1.0 - c
-    out[0, 0] = c + kx * kx * v
-    out[0, 1] = kx * ky * v - kz * s
-    out[0, 2] = kx * kz * v + ky * s
-    out[1, 0] = ky * kx * v + kz * s
-    out[1, 1] = c + ky * ky * v
-    out[1, 2] = ky * kz * v - kx * s
-    out[2, 0] = kz * kx * v - ky * s
-    out[2, 1] = kz * ky * v + kx * s
-    out[2, 2] = c + kz * kz * v
+    return (c + kx * kx * v, kx * ky * v - kz * s, kx * kz * v + ky * s,
+            ky * kx * v + kz * s, c + ky * ky * v, ky * kz * v - kx * s,
+            kz * kx * v - ky * s, kz * ky * v + kx * s, c + kz * kz * v)
+
+
+@njit(cache=True, inline="always")
+def _rotation(tx, ty, tz, out):
+    """Rotation matrix of the rotation vector (tx, ty, tz) (:func:`_rodrigues`), written to ``out`` (3, 3)."""
+    r00, r01, r02, r10, r11, r12, r20, r21, r22 = _rodrigues(tx, ty, tz)
+    out[0, 0] = r00
+    out[0, 1] = r01
+    out[0, 2] = r02
+    out[1, 0] = r10
+    out[1, 1] = r11
+    out[1, 2] = r12
+    out[2, 0] = r20
+    out[2, 1] = r21
+    out[2, 2] = r22
 
 
 @njit(cache=True)
@@ -1592,28 +1599,9 @@ def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncel
                     tx += rnoise * next_normal(rng, state)
                     ty += rnoise * next_normal(rng, state)
                     tz += rnoise * next_normal(rng, state)
-                # the Rodrigues matrix of _rotation and its product with orient[i], written out in
-                # the same arithmetic (a helper's array arguments cost a reference count per sphere)
-                th = np.sqrt(tx * tx + ty * ty + tz * tz)
-                if th < 1e-300:
-                    r00 = r11 = r22 = 1.0
-                    r01 = r02 = r10 = r12 = r20 = r21 = 0.0
-                else:
-                    kx = tx / th
-                    ky = ty / th
-                    kz = tz / th
-                    c = np.cos(th)
-                    sn = np.sin(th)
-                    v = 1.0 - c
-                    r00 = c + kx * kx * v
-                    r01 = kx * ky * v - kz * sn
-                    r02 = kx * kz * v + ky * sn
-                    r10 = ky * kx * v + kz * sn
-                    r11 = c + ky * ky * v
-                    r12 = ky * kz * v - kx * sn
-                    r20 = kz * kx * v - ky * sn
-                    r21 = kz * ky * v + kx * sn
-                    r22 = c + kz * kz * v
+                # the Rodrigues matrix and its product with orient[i] in scalars (a helper's array
+                # arguments cost a reference count per sphere)
+                r00, r01, r02, r10, r11, r12, r20, r21, r22 = _rodrigues(tx, ty, tz)
                 rot[i, 0, 0] = r00
                 rot[i, 0, 1] = r01
                 rot[i, 0, 2] = r02

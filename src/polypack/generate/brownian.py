@@ -508,7 +508,7 @@ class BrownianSimulation:
             if not f_adh > 0.0:
                 raise InvalidInputError(
                     f"rolling_moment={rolling_moment!r}: the DLVO force at minimum_separation = {p.minimum_separation:g} m "
-                    f"is repulsive ({-f_adh:.3g} N) at surface_potential = {p.surface_potential:g} V: no adhesion to "
+                    f"is not attractive ({f_adh:.3g} N, pull-off must be > 0) at surface_potential = {p.surface_potential:g} V: no adhesion to "
                     "roll against; give a number")
             mc = ROLLING_TO_ADHESION * a * f_adh
         else:

@@ -350,8 +350,9 @@ def adhesion_force(surface_potential=0.0, **parameters) -> float:
     spheres is ``π a W(h)``, ``W`` the interaction energy per unit area of two flat plates, so
     ``F_adh = π a w = 2π R* w`` with ``R* = a/2`` and ``w = -W(h_c)`` the work of adhesion of
     the surfaces at contact: the Derjaguin-Muller-Toporov pull-off force of rigid spheres.
-    With the Hamaker term alone it tends to ``A a / (12 h_c²)`` for ``h_c << a``; the
-    double layer (HHF form) lowers it by ``2π ε a Ψ0² κ / (1 + exp(κ h_c))``.
+    With the Hamaker term alone it tends to ``A a / (12 h_c²)`` for ``h_c << a``; with the
+    HHF double layer (``model="hhf"``, or ``"auto"`` at ``κa >= 5``) it is lower by
+    ``2π ε a Ψ0² κ / (1 + exp(κ h_c))``; the LSA form lowers it by a different amount.
 
     Parameters
     ----------
