@@ -102,3 +102,20 @@ def test_renumbering_is_undone_bit_for_bit(monkeypatch):
     assert np.array_equal(a.positions, b.positions)
     assert np.array_equal(a.radii, b.radii)
     assert np.array_equal(np.array(a.meta["pressure_history"]), np.array(b.meta["pressure_history"]))
+
+
+def test_records_and_heap_rows_are_cache_line_aligned():
+    """The layout the event loop's speed rests on (issue 33): each sphere's records ``P`` and ``E``
+    are one 64-byte line, and the heap's rows put the four children of every slot (slots
+    4s+1 .. 4s+4, in rows 4s+1+HEAP_ROW0 ..) in one line."""
+    for n in (1, 7, 1000, 4097):
+        P = edmd._aligned_rows(n, edmd.N_REC)
+        assert P.shape == (n, 8) and P.strides == (64, 8) and P.ctypes.data % 64 == 0
+        H = edmd._aligned_rows(n + edmd.HEAP_ROW0 + 1, 2)
+        assert H.strides == (16, 8)
+        for s in range(0, min(n, 50)):
+            first_child_row = 4 * s + 1 + edmd.HEAP_ROW0
+            assert (H.ctypes.data + 16 * first_child_row) % 64 == 0
+    # the int32 columns of E lie after its five float columns, inside the row
+    assert min(edmd.I_OFF, edmd.I_NN, edmd.I_P, edmd.I_C, edmd.I_CNT, edmd.I_HPOS) * 4 >= (edmd.E_T + 1) * 8
+    assert len({edmd.I_OFF, edmd.I_NN, edmd.I_P, edmd.I_C, edmd.I_CNT, edmd.I_HPOS}) == 6
