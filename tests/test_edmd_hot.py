@@ -3,6 +3,7 @@ next event as the plain one (the split event loop is covered bit for bit by test
 and its synchronisation returns by test_pack_options_change_speed_not_physics)."""
 
 import numpy as np
+import pytest
 from numba import njit
 
 from polypack._kernels import edmd
@@ -119,3 +120,15 @@ def test_records_and_heap_rows_are_cache_line_aligned():
     # the int32 columns of E lie after its five float columns, inside the row
     assert min(edmd.I_OFF, edmd.I_NN, edmd.I_P, edmd.I_C, edmd.I_CNT, edmd.I_HPOS) * 4 >= (edmd.E_T + 1) * 8
     assert len({edmd.I_OFF, edmd.I_NN, edmd.I_P, edmd.I_C, edmd.I_CNT, edmd.I_HPOS}) == 6
+
+
+def test_slab_lists_refuse_int32_overflow_before_allocating():
+    """The int32 slab offsets of the records: lists beyond 2^31 entries raise before the (>= 8 GB)
+    allocation, and a list just inside the range would be laid out (offsets, not memory, checked)."""
+    pi = np.array([0], np.int64)
+    pj = np.array([1], np.int64)
+    level = np.zeros(2, np.int64)
+    with pytest.raises(ValueError, match="2\\^31"):
+        edmd._slab_lists(pi, pj, 2, level, 1, np.int64(2 ** 30))  # 2 x (2 + 2^30) > 2^31 - 1
+    off, nn, nbr = edmd._slab_lists(pi, pj, 2, level, 1, np.int64(8))
+    assert list(off) == [0, 10, 20] and list(nn) == [1, 1] and nbr[0] == 1 and nbr[10] == 0

@@ -367,6 +367,9 @@ def _slab_lists(pi, pj, n, level, nlev, pad):
     for i in range(n):
         mean_l = lsum[level[i]] / max(lnum[level[i]], 1.0)
         off[i + 1] = off[i] + int(2.0 * max(cnt[i], mean_l)) + pad
+    if off[n] > 2147483647:  # checked before the allocation (it would be 8 GB and more)
+        raise ValueError("neighbour lists above 2^31 entries (int32 slab offsets of the records): "
+                         "pack fewer spheres per run or a narrower size distribution")
     nbr = np.empty(off[n], np.int32)  # int32: half the bytes of the lists (issue 33: cache misses)
     nn = np.zeros(n, np.int64)
     for k in range(m):
@@ -1251,9 +1254,7 @@ def run_chunk(x, v, g, box, state, params, hist):
                     rho[i] = r
                     if r > rho_max_lv[level[k]]:
                         rho_max_lv[level[k]] = r
-                off_b, nn_b, nbr = build_lists(x, rho_o, box, lev, nlev, pad, new)
-                if off_b[n] > 2147483647:
-                    raise ValueError("neighbour lists above 2^31 entries (int32 slab offsets)")
+                off_b, nn_b, nbr = build_lists(x, rho_o, box, lev, nlev, pad, new)  # checks the int32 range
                 for i in range(n):
                     off[i] = off_b[i]
                     nn[i] = nn_b[i]
