@@ -314,6 +314,11 @@ def test_verlet_list_is_pairs_within_by_i_then_j_with_flags_and_image_counts(nce
     nc = np.array(ncell, np.int64)
     ri, rj, _ = pairs_within(pos, np.ones(n), box, 0.0, 3.4, nc)
     assert ri.size > 200
+    # the oracle itself against all pairs by brute force (it shares cells.axis_reach / wrap_cell with bd)
+    d = pos[:, None, :] - pos[None, :, :]
+    d -= box * np.round(d / box)
+    bi, bj = np.nonzero(np.tril(np.einsum("ijk,ijk->ij", d, d) <= 3.4 ** 2, -1))
+    assert sorted(zip(ri.tolist(), rj.tolist())) == sorted(zip(bi.tolist(), bj.tolist()))
     bonded = {tuple(sorted(x)) for x in zip(ri[::3], rj[::3])}
     adj = np.zeros((n, 24), np.int64)
     deg = np.zeros(n, np.int64)

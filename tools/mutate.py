@@ -581,10 +581,10 @@ MUTANTS += [
            "dsfac = -6.0 * t * (1.0 - t) * 2.0 / uc", "dsfac = -6.0 * t * (1.0 - t) / uc",
            ("tests/test_brownian_lubrication.py",), "dropped factor (chain rule of the taper)"),
     # BD Verlet list built in place (issue 32, 5 Dec): cell wrap, fully scanned axes, bonded flags by mark
-    Mutant("k-bd-cell-wrap", K + "bd.py",
+    Mutant("k-bd-cell-wrap", K + "cells.py",
            "    elif x >= ncell:\n        x -= ncell\n", "    elif x > ncell:\n        x -= ncell\n",
            ("tests/test_bd_kernel.py",), "off-by-one (periodic wrap of the cell index)"),
-    Mutant("k-bd-reach-full", K + "bd.py",
+    Mutant("k-bd-reach-full", K + "cells.py",
            "    if 2 * r + 1 >= ncell:\n        return 0, ncell - 1, True\n",
            "    if 2 * r + 1 > ncell + 1:\n        return 0, ncell - 1, True\n",
            ("tests/test_bd_kernel.py",), "off-by-one (an axis of 2r cells scanned by offsets: a cell visited twice, "

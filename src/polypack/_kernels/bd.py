@@ -58,7 +58,7 @@ from enum import IntEnum
 import numpy as np
 from numba import njit
 
-from .cells import build_cells, cell_lengths, min_image
+from .cells import axis_reach, build_cells, cell_lengths, min_image, wrap_cell
 
 # parameter slots
 P_DT = 0
@@ -243,28 +243,6 @@ def _shifted(d, q, length):
     return d - length * q
 
 
-@njit(cache=True, inline="always")
-def _reach_cells(reach, length, ncell):
-    """``(lo, hi, full)`` cell offsets along one axis, as :func:`~polypack._kernels.cells.cells_in_reach` takes them."""
-    r = int(np.ceil(reach / length))
-    if 2 * r + 1 >= ncell:
-        return 0, ncell - 1, True
-    return -r, r, False
-
-
-@njit(cache=True, inline="always")
-def _wrap_cell(o, c, ncell, full):
-    """Cell ``(c + o) % ncell`` for ``|o| < ncell`` (``o`` itself along a fully scanned axis)."""
-    if full:
-        return o
-    x = c + o
-    if x < 0:
-        x += ncell
-    elif x >= ncell:
-        x -= ncell
-    return x
-
-
 @njit(cache=True)
 def _fill_verlet(pos, box, reach, ncell, cell_of, start, order, pi, pj, img):
     """Store the pairs of :func:`_verlet_pairs` into the buffers; returns their count (may exceed the buffers).
@@ -282,9 +260,9 @@ def _fill_verlet(pos, box, reach, ncell, cell_of, start, order, pi, pj, img):
     n0 = ncell[0]
     n1 = ncell[1]
     n2 = ncell[2]
-    lo0, hi0, full0 = _reach_cells(reach, cl[0], n0)
-    lo1, hi1, full1 = _reach_cells(reach, cl[1], n1)
-    lo2, hi2, full2 = _reach_cells(reach, cl[2], n2)
+    lo0, hi0, full0 = axis_reach(reach, cl[0], n0)
+    lo1, hi1, full1 = axis_reach(reach, cl[1], n1)
+    lo2, hi2, full2 = axis_reach(reach, cl[2], n2)
     lim2 = reach * reach
     m = 0
     for i in range(pos.shape[0]):
@@ -297,11 +275,11 @@ def _fill_verlet(pos, box, reach, ncell, cell_of, start, order, pi, pj, img):
         xi1 = pos[i, 1]
         xi2 = pos[i, 2]
         for ox in range(lo0, hi0 + 1):
-            x = _wrap_cell(ox, cx, n0, full0)
+            x = wrap_cell(ox, cx, n0, full0)
             for oy in range(lo1, hi1 + 1):
-                y = _wrap_cell(oy, cy, n1, full1)
+                y = wrap_cell(oy, cy, n1, full1)
                 for oz in range(lo2, hi2 + 1):
-                    z = _wrap_cell(oz, cz, n2, full2)
+                    z = wrap_cell(oz, cz, n2, full2)
                     c = (x * n1 + y) * n2 + z
                     for s in range(start[c], start[c + 1]):
                         j = order[s]

@@ -91,33 +91,50 @@ def cells_in_reach(ic, reach, cl, ncell, out):
 
     Along an axis where the reach wraps around the whole box every cell is listed
     (periodic images never make a cell appear twice).  Writes into ``out`` (length
-    at least the number of cells) and returns how many were written.
+    at least the number of cells) and returns how many were written.  The offsets
+    along each axis are those of :func:`axis_reach`, wrapped by :func:`wrap_cell`.
     """
     cz = ic % ncell[2]
     cy = (ic // ncell[2]) % ncell[1]
     cx = ic // (ncell[1] * ncell[2])
-    lo = np.empty(3, np.int64)
-    hi = np.empty(3, np.int64)
-    full = np.zeros(3, np.bool_)
-    for k in range(3):
-        r = int(np.ceil(reach / cl[k]))
-        if 2 * r + 1 >= ncell[k]:
-            full[k] = True
-            lo[k] = 0
-            hi[k] = ncell[k] - 1
-        else:
-            lo[k] = -r
-            hi[k] = r
+    lo0, hi0, full0 = axis_reach(reach, cl[0], ncell[0])
+    lo1, hi1, full1 = axis_reach(reach, cl[1], ncell[1])
+    lo2, hi2, full2 = axis_reach(reach, cl[2], ncell[2])
     m = 0
-    for ox in range(lo[0], hi[0] + 1):
-        x = ox if full[0] else (cx + ox) % ncell[0]
-        for oy in range(lo[1], hi[1] + 1):
-            y = oy if full[1] else (cy + oy) % ncell[1]
-            for oz in range(lo[2], hi[2] + 1):
-                z = oz if full[2] else (cz + oz) % ncell[2]
+    for ox in range(lo0, hi0 + 1):
+        x = wrap_cell(ox, cx, ncell[0], full0)
+        for oy in range(lo1, hi1 + 1):
+            y = wrap_cell(oy, cy, ncell[1], full1)
+            for oz in range(lo2, hi2 + 1):
+                z = wrap_cell(oz, cz, ncell[2], full2)
                 out[m] = (x * ncell[1] + y) * ncell[2] + z
                 m += 1
     return m
+
+
+@njit(cache=True, inline="always")
+def axis_reach(reach, length, ncell):
+    """``(lo, hi, full)``: the cell offsets ``lo .. hi`` within ``reach`` along one axis of
+    ``ncell`` cells of ``length``; ``full`` when the reach wraps the whole axis (then the
+    offsets are the cells ``0 .. ncell - 1`` themselves, each once)."""
+    r = int(np.ceil(reach / length))
+    if 2 * r + 1 >= ncell:
+        return 0, ncell - 1, True
+    return -r, r, False
+
+
+@njit(cache=True, inline="always")
+def wrap_cell(o, c, ncell, full):
+    """Cell ``(c + o) % ncell`` for ``|o| < ncell`` by one comparison (``o`` itself along a fully
+    scanned axis, :func:`axis_reach`)."""
+    if full:
+        return o
+    x = c + o
+    if x < 0:
+        x += ncell
+    elif x >= ncell:
+        x -= ncell
+    return x
 
 
 @njit(cache=True)
