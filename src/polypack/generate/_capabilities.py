@@ -228,16 +228,23 @@ register("protocol", "vem", VEMOptions, run_vem, Outputs(meta=("vem",), labels=V
                   "polypack._kernels.dem", "polypack._kernels.vem"))
 
 
+#: Named rules for ``rolling_moment`` besides a number (:mod:`polypack.generate.brownian`):
+#: ``"dlvo"`` = ``ROLLING_TO_ADHESION * a * F_adh`` with F_adh the pull-off force of the whole
+#: DLVO potential at contact (:func:`~polypack.generate.dlvo.adhesion_force`).
+ROLLING_MOMENT_RULES = ("dlvo",)
+_RULE_NAMES = ", ".join(f'"{r}"' for r in ROLLING_MOMENT_RULES)
+
+
 def _rolling_moment(x):
-    """A rolling moment (number > 0 or inf) or a named rule of polypack.generate.brownian ("dlvo")."""
+    """A rolling moment (number > 0 or inf) or one of :data:`ROLLING_MOMENT_RULES`."""
     if isinstance(x, str):
-        if x != "dlvo":
-            raise v.Bad('allowed: a number > 0, inf or "dlvo"')
+        if x not in ROLLING_MOMENT_RULES:
+            raise v.Bad(f"allowed: a number > 0, inf or {_RULE_NAMES}")
         return x
     return v.positive_or_inf(x)
 
 
-_rolling_moment.describe = 'number > 0, inf or "dlvo"'
+_rolling_moment.describe = f"number > 0, inf or {_RULE_NAMES}"
 
 
 @dataclass(frozen=True)

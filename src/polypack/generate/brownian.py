@@ -122,7 +122,7 @@ from .. import registry as _registry
 from .._util import as_seed_sequence, progress_bar, seed_record
 from ..errors import InfeasibleError, InvalidInputError, OverlapError
 from ..packing import Packing
-from ._capabilities import BrownianOptions
+from ._capabilities import ROLLING_MOMENT_RULES, BrownianOptions
 from .dlvo import DLVOParameters, _terms, adhesion_force, dlvo_extrema, dlvo_parameters
 
 __all__ = ["brownian", "BrownianSimulation", "brownian_bonds", "BOND_MODELS", "HYDRODYNAMICS", "BOND_ESCAPE",
@@ -150,9 +150,6 @@ ESCAPE_CHUNK = 0.02
 #: ``bonds="tangential"``: rolling-friction forces between silica microspheres are about 100
 #: times lower than their adhesion (pull-off) forces (Heim, Blum, Preuss & Butt 1999).
 ROLLING_TO_ADHESION = 0.01
-#: Named rules for ``rolling_moment`` besides a number: ``"dlvo"`` = ``ROLLING_TO_ADHESION * a * F_adh``
-#: with F_adh the pull-off force of the whole DLVO potential at contact (:func:`~polypack.generate.dlvo.adhesion_force`).
-ROLLING_MOMENT_RULES = ("dlvo",)
 #: Per-bond relaxation number ``k_s * mobility * dt`` of the default (numerical) sliding
 #: stiffness of ``bonds="tangential"``: a sphere with 10 bonds stays below the explicit
 #: Euler stability limit 2.
