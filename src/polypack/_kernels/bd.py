@@ -248,8 +248,9 @@ def _fill_verlet(pos, box, reach, ncell, cell_of, start, order, pi, pj, img):
     """Store the pairs of :func:`_verlet_pairs` into the buffers; returns their count (may exceed the buffers).
 
     The cells of each sphere are those of :func:`~polypack._kernels.cells.cells_in_reach`, in its
-    order, enumerated in place with the periodic wrap as one comparison per axis (the ~40 Python
-    modulos and three work arrays per sphere of ``cells_in_reach`` took most of a rebuild); within
+    order, enumerated in place (:func:`~polypack._kernels.cells.axis_reach`,
+    :func:`~polypack._kernels.cells.wrap_cell`) without its output array and per-call work arrays
+    (their allocation per sphere took most of a rebuild); within
     a cell the spheres are in increasing index (:func:`~polypack._kernels.cells.build_cells`), so
     the scan stops at the first ``j >= i``.  Each sphere's pairs are then sorted by ``j``
     (insertion sort of a handful), so the list order is that of the pairs themselves, not of
