@@ -132,3 +132,44 @@ def test_slab_lists_refuse_int32_overflow_before_allocating():
         edmd._slab_lists(pi, pj, 2, level, 1, np.int64(2 ** 30))  # 2 x (2 + 2^30) > 2^31 - 1
     off, nn, nbr = edmd._slab_lists(pi, pj, 2, level, 1, np.int64(8))
     assert list(off) == [0, 10, 20] and list(nn) == [1, 1] and nbr[0] == 1 and nbr[10] == 0
+
+
+def _sift_down_scan(hk, hi, hpos, k, n):
+    """The heap's sift-down as it was written before the select tournament (plain Python): the
+    first of the smallest children wins, the oracle of the slot-for-slot test below."""
+    key, idx = hk[k], hi[k]
+    while 4 * k + 1 < n:
+        c = 4 * k + 1
+        best = c
+        for q in range(c + 1, min(c + 4, n)):
+            if hk[q] < hk[best]:
+                best = q
+        if hk[best] >= key:
+            break
+        hk[k], hi[k] = hk[best], hi[best]
+        hpos[hi[k]] = k
+        k = best
+    hk[k], hi[k], hpos[idx] = key, idx, k
+
+
+@pytest.mark.parametrize("n", [6, 13, 200])
+def test_sift_down_tournament_keeps_the_heap_slot_for_slot(n):
+    """``_sift_down`` chooses among four children by selects (issue 33); with many equal keys
+    (ties decide which of two simultaneous events comes first, hence the pack) every slot of
+    the heap must be that of the scan it replaced, after builds and after root updates."""
+    rng = np.random.default_rng(n)
+    key = rng.integers(0, 5, n).astype(float)  # few distinct values: ties at every level
+    hk, hi, hpos = np.empty(n), np.empty(n, np.int64), np.empty(n, np.int64)
+    edmd._heap_build(hk, hi, hpos, key, n)
+    rk, ri, rp = key.copy(), np.arange(n), np.arange(n)
+    for k in range((n - 2) // 4, -1, -1):
+        _sift_down_scan(rk, ri, rp, k, n)
+    assert np.array_equal(hk, rk) and np.array_equal(hi, ri) and np.array_equal(hpos, rp)
+    for step in range(300):
+        i = hi[0] if step % 3 else rng.integers(n)
+        new = float(hk[hpos[i]] + rng.integers(0, 3))  # later or equal: a sift towards the leaves
+        edmd._heap_update(hk, hi, hpos, i, new, n)
+        k = rp[i]
+        rk[k] = new
+        _sift_down_scan(rk, ri, rp, k, n)
+        assert np.array_equal(hk, rk) and np.array_equal(hi, ri) and np.array_equal(hpos, rp), step

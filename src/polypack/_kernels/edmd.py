@@ -255,14 +255,31 @@ def _sift_down(hk, hi, hpos, k, n):
         g = 4 * c + 1
         for q in range(g, min(g + 16, n), 4):
             _prefetch_row(hk, q)
-        best = c
-        bk = hk[c]
-        e = min(c + 4, n)
-        for q in range(c + 1, e):
-            kq = hk[q]
-            if kq < bk:
-                bk = kq
-                best = q
+        if c + 3 < n:
+            # the smallest of four children by a tournament of selects, no branch on the keys
+            # (a choice among four event times is a coin toss the processor mispredicts); on
+            # equal keys the first child wins, as in the scan below
+            k0 = hk[c]
+            k1 = hk[c + 1]
+            k2 = hk[c + 2]
+            k3 = hk[c + 3]
+            l1 = k1 < k0
+            a = c + 1 if l1 else c
+            ka = k1 if l1 else k0
+            l3 = k3 < k2
+            b = c + 3 if l3 else c + 2
+            kb = k3 if l3 else k2
+            lb = kb < ka
+            best = b if lb else a
+            bk = kb if lb else ka
+        else:
+            best = c
+            bk = hk[c]
+            for q in range(c + 1, n):
+                kq = hk[q]
+                if kq < bk:
+                    bk = kq
+                    best = q
         if bk >= key:
             break
         hk[k] = bk
