@@ -3,7 +3,9 @@ displacements: the pair force acts along the line of centres with opposite signs
 and the drift cap lets an attraction close at most ``drift_cap`` of the gap per step.
 
 Reduced units of the kernel (radius 1, kT 1, time a^2/D0): a sphere moves by F dt. Without noise
-the step is deterministic, so the expected positions hold to round-off (1e-12).
+the step is deterministic, so the expected positions hold to round-off (1e-12), except where the
+pair loop's r² force table (``F/r`` interpolated in ``s = r²``, bd._force_table_r2) stands in for the
+h table: there to its interpolation error (tests at the end of this file bound it).
 """
 
 import numpy as np
@@ -38,9 +40,12 @@ def _step(gap, force, dt, cap):
 
 @pytest.mark.parametrize("force", [-5.0, 3.0])
 def test_pair_force_moves_both_spheres_along_the_line_of_centres(force):
-    # force > 0 repels: sphere 0 moves by -F dt along x, sphere 1 by +F dt; y and z stay
+    # force > 0 repels: sphere 0 moves by -F dt along x, sphere 1 by +F dt; y and z stay.  The pair
+    # loop interpolates F/r linearly in s = r^2 (1024 intervals over s in [1.9^2, 2.5^2] here): the
+    # 1/r it stands in for is off by at most ds^2/8 max|d2(s^-1/2)/ds2| r = 3 ds^2 / (32 s^2) ~ 3e-8,
+    # so F dt is off by ~1e-10 (a wrong sign or axis would be 3e-3 off)
     pos = _step(0.3, force, 1e-3, 0.0)
-    np.testing.assert_allclose(pos[:, 0], [4.0 - force * 1e-3, 6.3 + force * 1e-3], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(pos[:, 0], [4.0 - force * 1e-3, 6.3 + force * 1e-3], rtol=0, atol=1e-9)
     np.testing.assert_array_equal(pos[:, 1:], 5.0)
 
 
@@ -70,7 +75,9 @@ def test_pair_force_interpolates_the_table_and_clamps_like_np_interp():
 
 def test_the_three_kernels_apply_the_same_pair_force():
     """One noise-free step of two unbonded spheres: run, run_rigid (two one-sphere clusters) and
-    run_tangential (no springs) share the pair-force helper and give the same positions bit for bit."""
+    run_tangential (no springs) share the pair-force loop: run and run_tangential (the r² table) give the
+    same positions bit for bit, run_rigid (the h table it is resampled from) the same within the table's
+    interpolation error (F dt ~ 0.05 here)."""
     rng = np.random.default_rng(0)
     table = rng.normal(size=12) * 50.0
     out = []
@@ -104,7 +111,8 @@ def test_the_three_kernels_apply_the_same_pair_force():
         assert status == 0
         out.append(pos)
     assert not np.array_equal(out[0], [[4.0, 5.0, 5.0], [6.13, 5.4, 4.9]])  # the force moved them
-    np.testing.assert_array_equal(out[0], out[1])
+    np.testing.assert_allclose(out[0], out[1], rtol=0, atol=1e-6)
+    assert not np.array_equal(out[0], out[1])  # rigid keeps the h table
     np.testing.assert_array_equal(out[0], out[2])
 
 
@@ -393,3 +401,98 @@ def test_default_skin_grows_with_the_step_within_the_half_box():
     assert s == pytest.approx(steps30) and 0.5 < s < 0.7
     s, steps30, room = skins[20, 1.37e-5]
     assert room < steps30 and s == pytest.approx(room)
+
+
+def _one_pair_force(t2, tp, p, r):
+    """The pair loop's force (kT/a, > 0 repulsive) of one unbonded pair at centre distance ``r``."""
+    pos = np.array([[0.0, 0.0, 0.0], [r, 0.0, 0.0]])
+    f = np.zeros((2, 3))
+    one = np.zeros(1, np.int64)
+    bd._central_forces(pos, np.full(3, 100.0), p, one + 1, one, one, np.zeros((1, 3)), np.zeros(1, np.uint8),
+                       np.zeros(2), t2, tp, f, bd._NO_LABELS, False)
+    assert f[0, 0] == -f[1, 0] and not f[:, 1:].any()
+    return f[1, 0]
+
+
+def _tables():
+    """The force tables of three production set-ups (N = 60, only the tables are used): the
+    repulsive suspension of benchmarks/bench_brownian.py's rate part, the default 15 mV gel and
+    the seed study's model A at 0 and 15 mV (4 nm contact, the largest step)."""
+    import polypack as pp
+    from polypack.generate import brownian as B
+
+    out = []
+    a = 0.25e-6
+    lam = a / 40
+    ps = pp.generate.dlvo_parameters(0.03, hamaker=0.0, debye_length=lam)
+    out.append(("suspension", B.BrownianSimulation(np.zeros((60, 3)), 20 * a, ps, bond_width=None,
+                                                   cutoff=(2.0 + 30 * lam / a) * a)))
+    out.append(("gel 15 mV", B.BrownianSimulation(np.zeros((60, 3)), 20 * a, pp.generate.dlvo_parameters(0.015))))
+    for psi in (0.0, 0.015):
+        pa = pp.generate.dlvo_parameters(psi, minimum_separation=4e-9)
+        out.append((f"model A {psi * 1e3:.0f} mV", B.BrownianSimulation(
+            np.zeros((60, 3)), 20 * a, pa, time_step=1.37e-5, bond_width=4e-9, bonds="tangential")))
+    return out
+
+
+@pytest.mark.parametrize("case", range(4))
+def test_r2_force_table_error_against_the_h_table_and_the_exact_dlvo_force(case):
+    """The pair loop's force (F/r linear in s = r^2, bd._force_table_r2) against the h table it is
+    resampled from (bd._pair_force, the model force of the h grid) and against the exact DLVO force,
+    on 4000 distances from the table start to the cutoff.  Measured (max over r of |ΔF| / max|F|):
+    vs the h table 1.9e-7 / 9.6e-6 / 2.7e-7 / 9.1e-7 (suspension / gel 15 mV / model A 0 / 15 mV),
+    vs exact DLVO 2.1e-7 / 1.0e-5 / 3.1e-7 / 1.2e-6, where the h table alone is 2.1e-7 / 1.0e-5 /
+    3.0e-7 / 1.2e-6 off: the resampling adds less than the h grid's own error.  Bound: 2.5e-5 of
+    max|F|, and against exact DLVO at most 2 x the h table's own error + 1e-7 max|F|.  Where the
+    drift cap binds the two agree to round-off (the cap is applied exactly, at r)."""
+    from polypack.generate.dlvo import dlvo_force
+
+    name, sim = _tables()[case]
+    p = sim._params
+    t2, tp = bd._force_table_r2(sim._table, p)
+    lo, rc = p[bd.P_TAB_LO], p[bd.P_R_CUT]
+    r = np.linspace(2.0 + lo, rc, 4001)[:-1]
+    args = (sim._table, lo, 1.0 / p[bd.P_TAB_DH])
+    fk = np.array([_one_pair_force(t2, tp, p, x) for x in r])
+    fh = np.array([bd._pair_force(x - 2.0, *args, p[bd.P_CAP_DRIFT], p[bd.P_DT]) for x in r])
+    free = np.array([bd._pair_force(x - 2.0, *args, 0.0, 0.0) for x in r])
+    capped = fh != free
+    fe = dlvo_force(r * sim.parameters.radius, sim.parameters) * sim.parameters.radius / sim.parameters.kT
+    scale = np.abs(fe[~capped]).max()
+    assert np.abs(fk - fh).max() < 2.5e-5 * scale, name
+    e_table = np.abs(fk - fe)[~capped].max()
+    e_h = np.abs(fh - fe)[~capped].max()
+    assert e_table < 2.0 * e_h + 1e-7 * scale and e_table < 2.5e-5 * scale, name
+    if capped.any():
+        np.testing.assert_allclose(fk[capped], fh[capped], rtol=1e-12, atol=1e-12)
+    # below the table's start the loop clamps F/r (an overlap beyond the table): F = (F/r)(r_lo) r, and a
+    # capped attraction inside contact (h < 0) is zero
+    r_lo = 2.0 + lo
+    f_lo = bd._pair_force(lo, *args, 0.0, 0.0)
+    expect = 0.0 if (p[bd.P_CAP_DRIFT] > 0 and f_lo < 0) else f_lo * 0.97
+    assert _one_pair_force(t2, tp, p, 0.97 * r_lo) == pytest.approx(expect, rel=1e-9, abs=1e-12)
+
+
+@pytest.mark.parametrize("case", range(1, 4))
+def test_r2_force_table_takes_the_drift_cap_wherever_it_can_bind(case):
+    """Pairs with s = r^2 above the table's s_cap skip the drift-cap test: on a dense grid (50 points per
+    table interval) the capped and the uncapped model force agree everywhere beyond s_cap, and the cap
+    does bind just inside it (so s_cap is not a trivially safe 'everything')."""
+    name, sim = _tables()[case]
+    p = sim._params
+    t2, tp = bd._force_table_r2(sim._table, p)
+    s_cap = tp[3]
+    assert s_cap > 4.0, name
+    args = (sim._table, p[bd.P_TAB_LO], 1.0 / p[bd.P_TAB_DH])
+    ds = 1.0 / tp[1]
+    r = np.sqrt(np.linspace(s_cap, s_cap + 400 * ds, 20001))
+    for x in r:
+        assert bd._pair_force(x - 2.0, *args, p[bd.P_CAP_DRIFT], p[bd.P_DT]) == bd._pair_force(x - 2.0, *args, 0.0, 0.0)
+    inside = np.sqrt(np.linspace(tp[0], s_cap, 2001))
+    bind = [bd._pair_force(x - 2.0, *args, p[bd.P_CAP_DRIFT], p[bd.P_DT]) != bd._pair_force(x - 2.0, *args, 0.0, 0.0)
+            for x in inside]
+    assert any(bind[-200:]), name  # within 10 % of the capped range of s_cap
+    # no cap when the step or the cap fraction is zero
+    q = p.copy()
+    q[bd.P_CAP_DRIFT] = 0.0
+    assert bd._force_table_r2(sim._table, q)[1][3] == -1.0

@@ -13,8 +13,11 @@ with ``F`` the total force in units of ``kT/a``, followed by constraint projecti
   ``P_CAP_DRIFT > 0`` an *attractive* pair force is capped so that it closes at most
   ``P_CAP_DRIFT`` of the gap ``h`` in one step (the deep inner side of a DLVO well is
   not resolvable with Brownian steps; the cap makes the pair approach contact
-  geometrically instead of jumping through it).  One helper, :func:`_pair_force`, inside one pair loop,
-  :func:`_central_forces`, serves all three kernels.
+  geometrically instead of jumping through it).  One pair loop, :func:`_central_forces`, serves
+  all three kernels; the flexible and tangential ones read ``F/r`` from a table in ``r²``
+  resampled from this one (:func:`_force_table_r2`: no square root or division per pair, the
+  forces within the interpolation error of the h table), the rigid one the h table itself
+  (:func:`_pair_force`).
 * Bonds (``P_BOND_WIDTH >= 0``): after each step, Gauss–Seidel sweeps over the
   Verlet pairs (at most ``P_SWEEPS``, until the largest correction is below
   ``P_PROJ_TOL``) bond every unbonded pair with ``h < P_BOND_WIDTH`` (capture into the
@@ -500,12 +503,12 @@ def _project(pos, box, params, state, istate, pi, pj, flag, img, bonds, adj, deg
 
 @njit(cache=True, inline="always")
 def _pair_force(h, table, lo, inv_dh, cap_drift, dt, uc=0.0):
-    """Central DLVO pair force (kT/a, positive = repulsive) at surface separation ``h``.
+    """Central DLVO pair force (kT/a, positive = repulsive) at surface separation ``h``: the model force.
 
     Linear interpolation of ``table`` on the grid ``lo + k / inv_dh`` (clamped at both
-    ends); with ``cap_drift > 0`` an attraction is capped so that the pair's gap closes
-    by at most ``cap_drift * h`` in one step of length ``dt`` (module docstring), at the
-    pair's relative mobility ``2 / β_eff(h)`` when lubricated (``uc > 0``).
+    ends); with ``cap_drift > 0`` an attraction is capped (:func:`_cap_attraction`).  The
+    pair loop evaluates its r² resampling (:func:`_force_table_r2`); this is the force that
+    table approximates and the reference of its tests.
     """
     ntab = table.shape[0]
     t = (h - lo) * inv_dh
@@ -517,6 +520,17 @@ def _pair_force(h, table, lo, inv_dh, cap_drift, dt, uc=0.0):
         q = int(t)
         w = t - q
         f = (1.0 - w) * table[q] + w * table[q + 1]
+    return _cap_attraction(f, h, cap_drift, dt, uc)
+
+
+@njit(cache=True, inline="always")
+def _cap_attraction(f, h, cap_drift, dt, uc):
+    """The drift cap of a pair force ``f`` (kT/a) at gap ``h`` (scalars only).
+
+    With ``cap_drift > 0`` an attraction is capped so that the pair's gap closes by at most
+    ``cap_drift * h`` in one step of length ``dt`` (module docstring), at the pair's relative
+    mobility ``2 / β_eff(h)`` when lubricated (``uc > 0``).
+    """
     if cap_drift > 0.0 and f < 0.0 and dt > 0.0:
         # both spheres move by |f| dt: the gap closes by 2 |f| dt at most cap_drift * h
         fmax = cap_drift * max(h, 0.0) / (2.0 * dt)
@@ -527,23 +541,87 @@ def _pair_force(h, table, lo, inv_dh, cap_drift, dt, uc=0.0):
     return f
 
 
+#: The r² force table of the pair loop (:func:`_force_table_r2`): its spacing in ``s = r²`` is that
+#: of the h table at the table's start divided by ``R2_REFINE`` (finer in h further out, where
+#: ``ds = 2 r dh``), with at least ``R2_MIN_INTERVALS`` and at most ``R2_MAX_INTERVALS`` intervals.
+R2_REFINE = 2
+R2_MIN_INTERVALS = 1024
+R2_MAX_INTERVALS = 1 << 18
+
+
 @njit(cache=True)
-def _central_forces(pos, box, params, ui, uj, uk, us, flag, table, force, lab, rigid):
+def _force_table_r2(table, params):
+    """The pair loop's force table: ``F(r) / r`` on a uniform grid in ``s = r²``; returns ``(t2, tp)``.
+
+    No square root and no division per pair: the loop reads ``F(r)/r`` at ``s = r²`` by
+    linear interpolation (clamped at both ends) and multiplies it by the pair's vector.
+    The nodes ``s_k = s_lo + k ds`` run from ``s_lo = max(2 + lo, 1)²`` (``lo`` the h table's
+    start) to the cutoff ``r_c²``; ``t2[k] = F(r_k) / r_k`` with ``F`` the h table's
+    interpolant without the drift cap (:func:`_pair_force`), so the loop's force is that
+    interpolant re-interpolated in ``s`` (spacing :data:`R2_REFINE`; the error against the
+    h table and against the exact DLVO force is bounded in tests/test_bd_kernel.py).  ``t2``
+    has one padding entry, so the clamped top index needs no test.  ``tp`` holds ``s_lo``,
+    ``1 / ds``, the clamp ``m`` (the number of intervals) and ``s_cap``: pairs with ``s <= s_cap``
+    take the exact drift cap (:func:`_cap_attraction`, a square root and a division); beyond
+    it no interpolated attraction can reach the cap (checked interval by interval at the
+    build, with the cap's value at each interval's inner end and ``β_eff >= 1``), so the
+    cap is never tested there.  ``s_cap = -1`` when there is no cap (``P_CAP_DRIFT`` or
+    ``P_DT`` zero).
+    """
+    lo = params[P_TAB_LO]
+    dh = params[P_TAB_DH]
+    inv_dh = 1.0 / dh
+    r_lo = max(2.0 + lo, 1.0)
+    s_lo = r_lo * r_lo
+    s_hi = max(params[P_R_CUT] * params[P_R_CUT], 1.01 * s_lo)  # no pairs (r_c <= 0) or all inside the start
+    m = int(np.ceil((s_hi - s_lo) / (2.0 * r_lo * dh / R2_REFINE)))
+    m = min(max(m, R2_MIN_INTERVALS), R2_MAX_INTERVALS)
+    ds = (s_hi - s_lo) / m
+    t2 = np.empty(m + 2)
+    for k in range(m + 1):
+        r = np.sqrt(s_lo + k * ds)
+        t2[k] = _pair_force(r - 2.0, table, lo, inv_dh, 0.0, 0.0) / r
+    t2[m + 1] = t2[m]
+    cap_drift = params[P_CAP_DRIFT]
+    dt = params[P_DT]
+    s_cap = -1.0
+    if cap_drift > 0.0 and dt > 0.0:
+        if t2[0] < 0.0:  # clamped attraction below the grid: the cap binds inside contact
+            s_cap = s_lo + ds
+        for k in range(m):
+            att = max(-t2[k], -t2[k + 1])  # largest attraction / r of the interpolant on the interval
+            if att > 0.0:
+                r0 = np.sqrt(s_lo + k * ds)
+                r1 = np.sqrt(s_lo + (k + 1) * ds)
+                if att * r1 >= cap_drift * max(r0 - 2.0, 0.0) / (2.0 * dt):
+                    s_cap = s_lo + (k + 2) * ds  # one interval of margin for the rounding of the index
+    tp = np.empty(4)
+    tp[0] = s_lo
+    tp[1] = 1.0 / ds
+    tp[2] = float(m)
+    tp[3] = s_cap
+    return t2, tp
+
+
+@njit(cache=True)
+def _central_forces(pos, box, params, ui, uj, uk, us, flag, table, t2, tp, force, lab, rigid):
     """Add the tabulated central pair force of every unbonded listed pair to ``force``; returns sum r F.
 
-    The one pair-force loop of the three kernels (:func:`_pair_force` per pair), over the
-    pairs unbonded at the list build (``ui, uj, uk, us`` of :func:`_unbonded`, in list order;
-    those captured since are skipped by ``flag``).  The
-    flexible and tangential kernels (``rigid=False``) take each pair's minimum image from
-    the gathered shifts ``us`` of the Verlet list (:func:`_shifted`, ``min_image`` bit for
-    bit for spheres unwrapped up to 1.5 boxes apart) and apply the lubrication range of
-    ``params`` to the attraction cap.  The rigid kernel (``rigid=True``) skips the pairs
-    inside one rigid cluster (``lab``, see :func:`_internal`; their forces cancel in the
-    cluster's force and torque), takes the plain minimum image (its clusters are shifted
-    by box vectors on merging, so stored image counts would go stale) and caps without
-    lubrication; ``lab`` is unused otherwise.  The branch is loop-invariant, so each
-    kernel runs the loop it had with its own copy (one pass over the pairs, same order,
-    same arithmetic).
+    The one pair-force loop of the three kernels, over the pairs unbonded at the list build
+    (``ui, uj, uk, us`` of :func:`_unbonded`, in list order; those captured since are skipped
+    by ``flag``).  The flexible and tangential kernels (``rigid=False``) read the r² force
+    table ``t2, tp`` of :func:`_force_table_r2` (``F/r`` at ``s = r²`` by linear
+    interpolation, times the pair's vector: no square root or division per pair; the drift
+    cap, :func:`_cap_attraction`, only for the pairs within ``s_cap``), take each pair's
+    minimum image from the gathered shifts ``us`` of the Verlet list (:func:`_shifted`,
+    ``min_image`` bit for bit for spheres unwrapped up to 1.5 boxes apart) and apply the
+    lubrication range of ``params`` to the attraction cap.  The rigid kernel (``rigid=True``)
+    keeps the h table (:func:`_pair_force` at ``h = r - 2``, divided by ``r``; its runs are
+    those before the r² table bit for bit), skips the pairs inside one rigid cluster
+    (``lab``, see :func:`_internal`; their forces cancel in the cluster's force and torque),
+    takes the plain minimum image (its clusters are shifted by box vectors on merging, so
+    stored image counts would go stale) and caps without lubrication; ``lab`` is unused
+    otherwise.  The branch is loop-invariant, so each kernel runs its own copy of the loop.
     """
     dt = params[P_DT]
     rc2 = params[P_R_CUT] * params[P_R_CUT]
@@ -551,6 +629,10 @@ def _central_forces(pos, box, params, ui, uj, uk, us, flag, table, force, lab, r
     lo = params[P_TAB_LO]
     inv_dh = 1.0 / params[P_TAB_DH]
     uc = params[P_LUB_RANGE] if not rigid else 0.0
+    s_lo = tp[0]
+    inv_ds = tp[1]
+    top = tp[2]
+    s_cap = tp[3]
     vir = 0.0
     for q in range(ui.shape[0]):
         if flag[uk[q]]:  # captured since the build
@@ -570,10 +652,20 @@ def _central_forces(pos, box, params, ui, uj, uk, us, flag, table, force, lab, r
         r2 = dx * dx + dy * dy + dz * dz
         if r2 >= rc2:
             continue
-        r = np.sqrt(r2)
-        f = _pair_force(r - 2.0, table, lo, inv_dh, cap_drift, dt, uc)
-        vir += f * r
-        fr = f / r
+        if rigid:
+            r = np.sqrt(r2)
+            f = _pair_force(r - 2.0, table, lo, inv_dh, cap_drift, dt)
+            vir += f * r
+            fr = f / r
+        else:
+            t = min(max((r2 - s_lo) * inv_ds, 0.0), top)
+            c = int(t)
+            w = t - c
+            fr = (1.0 - w) * t2[c] + w * t2[c + 1]  # F / r
+            if r2 <= s_cap:  # the drift cap may bind: exact, at r
+                r = np.sqrt(r2)
+                fr = _cap_attraction(fr * r, r - 2.0, cap_drift, dt, uc) / r
+            vir += fr * r2
         force[i, 0] -= fr * dx
         force[i, 1] -= fr * dy
         force[i, 2] -= fr * dz
@@ -877,6 +969,7 @@ def run(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rng, nst
     bonding = params[P_BOND_WIDTH] >= 0.0
     ktrap = params[P_TRAP_K]
 
+    t2, tp = _force_table_r2(table, params)
     pi, pj, flag, img = _build(pos, box, params, adj, deg, ncell)
     ui, uj, uk, us = _unbonded(pi, pj, flag, img, box)
     near = np.empty(pi.shape[0], np.int64)
@@ -888,7 +981,7 @@ def run(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rng, nst
             force[i, 0] = 0.0
             force[i, 1] = 0.0
             force[i, 2] = 0.0
-        vir = _central_forces(pos, box, params, ui, uj, uk, us, flag, table, force, _NO_LABELS, False)
+        vir = _central_forces(pos, box, params, ui, uj, uk, us, flag, table, t2, tp, force, _NO_LABELS, False)
         if ktrap != 0.0:
             _trap_forces(pos, box, ktrap, force)
         state[S_VIRIAL] += vir
@@ -1368,6 +1461,7 @@ def run_rigid(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rn
     half_skin2 = 0.25 * params[P_SKIN] * params[P_SKIN]
     ktrap = params[P_TRAP_K]
 
+    t2, tp = _force_table_r2(table, params)
     pi, pj, flag, img = _build(pos, box, params, adj, deg, ncell)
     ui, uj, uk, us = _unbonded(pi, pj, flag, img, box)
     ref = pos.copy()
@@ -1377,7 +1471,7 @@ def run_rigid(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rn
             force[i, 0] = 0.0
             force[i, 1] = 0.0
             force[i, 2] = 0.0
-        vir = _central_forces(pos, box, params, ui, uj, uk, us, flag, table, force, lab, True)
+        vir = _central_forces(pos, box, params, ui, uj, uk, us, flag, table, t2, tp, force, lab, True)
         if ktrap != 0.0:
             _trap_forces(pos, box, ktrap, force)
         state[S_VIRIAL] += vir
@@ -1548,6 +1642,7 @@ def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncel
     rotate = springs or params[P_ROTATE] != 0.0
     rnoise = noise * np.sqrt(SPHERE_ROT_MOBILITY)
 
+    t2, tp = _force_table_r2(table, params)
     pi, pj, flag, img = _build(pos, box, params, adj, deg, ncell)
     ui, uj, uk, us = _unbonded(pi, pj, flag, img, box)
     near = np.empty(pi.shape[0], np.int64)
@@ -1561,7 +1656,7 @@ def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncel
             for c in range(3):
                 force[i, c] = 0.0
                 torque[i, c] = 0.0
-        vir = _central_forces(pos, box, params, ui, uj, uk, us, flag, table, force, _NO_LABELS, False)
+        vir = _central_forces(pos, box, params, ui, uj, uk, us, flag, table, t2, tp, force, _NO_LABELS, False)
         if springs:
             _tangential_forces(pos, box, params, bonds, istate[I_NBONDS], anchors, force, torque)
         if ktrap != 0.0:
