@@ -496,3 +496,71 @@ def test_r2_force_table_takes_the_drift_cap_wherever_it_can_bind(case):
     q = p.copy()
     q[bd.P_CAP_DRIFT] = 0.0
     assert bd._force_table_r2(sim._table, q)[1][3] == -1.0
+
+
+@pytest.mark.parametrize("model", ["flexible", "tangential", "lubrication", "suspension"])
+def test_a_run_continues_bit_for_bit_across_kernel_calls(model):
+    """40 steps in one kernel call or in calls of 25 and 15 give the same positions bit for bit: the
+    generator's state (held in registers during a pass, bd._u64) is stored back, and nothing else a
+    call rebuilds (Verlet list, r² table, near list) changes the trajectory."""
+    import polypack as pp
+    from polypack.generate import brownian as B
+
+    p = pp.generate.dlvo_parameters(0.0 if model == "suspension" else 0.015,
+                                     hamaker=0.0 if model == "suspension" else None)
+    a = p.radius
+    n = 150
+    box = a * (4 * n * np.pi / (3 * 0.4)) ** (1 / 3)
+    pos = B._initial_positions(n, a, box, 2 * p.debye_length, 1)
+    kw = {"tangential": dict(bonds="tangential"), "lubrication": dict(hydrodynamics="lubrication"),
+          "suspension": dict(bond_width=None)}.get(model, {})
+    out = []
+    for chunks in ((40,), (25, 15)):
+        sim = B.BrownianSimulation(pos, box, p, seed=4, time_step=(0.5 * p.debye_length) ** 2 / (2 * p.diffusion_coefficient),
+                                   **kw)
+        for c in chunks:
+            sim.run(c)
+        out.append(np.concatenate([sim.positions.ravel(), sim.orientations.ravel()]))
+    assert not np.array_equal(out[0][:3 * n], pos)
+    np.testing.assert_array_equal(out[0], out[1])
+
+
+@pytest.mark.parametrize("kernel", ["run", "tangential"])
+def test_the_noise_is_the_generator_stream_in_order_across_steps(kernel):
+    """Free spheres (no pairs in reach, no forces): two steps move each coordinate by sqrt(2 dt) times
+    the ziggurat normals of the generator's state (bd.fill_normals from the same state), in order:
+    per step 3N translational normals and, in run_tangential with rotation on, 3N rotational ones
+    after them; the state left after the call is the stream's state after those draws."""
+    n = 5
+    pos0 = np.array([[10.0 + 15.0 * k, 20.0, 30.0 + 7.0 * k] for k in range(n)])
+    box = np.full(3, 100.0)
+    p = np.zeros(bd.N_PARAMS)
+    p[bd.P_DT] = 1e-3
+    p[bd.P_NOISE] = np.sqrt(2e-3)
+    p[bd.P_R_CUT] = 2.5
+    p[bd.P_SKIN] = 0.4
+    p[bd.P_BOND_WIDTH] = -1.0
+    p[bd.P_SWEEPS] = 4
+    p[bd.P_PROJ_TOL] = 1e-9
+    p[bd.P_TAB_LO] = 0.0
+    p[bd.P_TAB_DH] = 0.1
+    p[bd.P_ROTATE] = 1.0
+    rng = np.array([11, 22, 33, 44], np.uint64)
+    per_step = 3 * n * (2 if kernel == "tangential" else 1)
+    g = np.empty(2 * per_step + 1)
+    ref_state = rng.copy()
+    bd.fill_normals(ref_state, np.zeros(bd.N_STATE), g)
+    pos = pos0.copy()
+    args = (pos, box, p, np.zeros(bd.N_STATE), np.zeros(bd.N_ISTATE, np.int64), np.zeros(4), np.zeros((4, 2), np.int64),
+            np.zeros((n, 8), np.int64), np.zeros(n, np.int64), np.array([3, 3, 3], np.int64), rng, 2)
+    if kernel == "run":
+        assert bd.run(*args) == 0
+    else:
+        orient = np.zeros((n, 3))
+        orient[:, 2] = 1.0
+        assert bd.run_tangential(*args, np.zeros((4, 6)), orient) == 0
+    expect = (pos0 + p[bd.P_NOISE] * g[:3 * n].reshape(n, 3)) + p[bd.P_NOISE] * g[per_step:per_step + 3 * n].reshape(n, 3)
+    np.testing.assert_array_equal(pos, expect)
+    nxt = np.empty(1)
+    bd.fill_normals(rng, np.zeros(bd.N_STATE), nxt)  # the kernel's state continues the stream
+    assert nxt[0] == g[-1]

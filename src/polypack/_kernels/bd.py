@@ -119,23 +119,44 @@ def _rotl(x, k):
 
 
 @njit(cache=True, inline="always")
+def _u64(s0, s1, s2, s3):
+    """xoshiro256** step on a state held in four scalars: ``(result, s0, s1, s2, s3)``.
+
+    The hot loops keep the state in locals (registers) for a whole pass and store it back once:
+    through the ``uint64[4]`` array every draw reloaded and stored the state, since the compiler
+    cannot tell the state array from the positions the loop writes.  Same numbers as
+    :func:`next_u64`, bit for bit.
+    """
+    result = _rotl(s1 * np.uint64(5), 7) * np.uint64(9)
+    t = s1 << np.uint64(17)
+    s2 ^= s0
+    s3 ^= s1
+    s1 ^= s2
+    s0 ^= s3
+    s2 ^= t
+    s3 = _rotl(s3, 45)
+    return result, s0, s1, s2, s3
+
+
+@njit(cache=True, inline="always")
 def next_u64(s):
     """xoshiro256** step on the state ``s`` (uint64[4])."""
-    result = _rotl(s[1] * np.uint64(5), 7) * np.uint64(9)
-    t = s[1] << np.uint64(17)
-    s[2] ^= s[0]
-    s[3] ^= s[1]
-    s[1] ^= s[2]
-    s[0] ^= s[3]
-    s[2] ^= t
-    s[3] = _rotl(s[3], 45)
+    result, s[0], s[1], s[2], s[3] = _u64(s[0], s[1], s[2], s[3])
     return result
+
+
+@njit(cache=True, inline="always")
+def _double(s0, s1, s2, s3):
+    """Uniform double in [0, 1) with 53 random bits, state in scalars (:func:`_u64`)."""
+    u, s0, s1, s2, s3 = _u64(s0, s1, s2, s3)
+    return float(u >> np.uint64(11)) * (1.0 / 9007199254740992.0), s0, s1, s2, s3
 
 
 @njit(cache=True, inline="always")
 def next_double(s):
     """Uniform double in [0, 1) with 53 random bits."""
-    return float(next_u64(s) >> np.uint64(11)) * (1.0 / 9007199254740992.0)
+    x, s[0], s[1], s[2], s[3] = _double(s[0], s[1], s[2], s[3])
+    return x
 
 
 def _ziggurat_tables(layers=256, r=3.6541528853610088, v=0.00492867323399):
@@ -172,16 +193,16 @@ _ZIG_INV_R = 1.0 / _ZIG_R
 
 
 @njit(cache=True, inline="always")
-def next_normal(s, state):
+def _normal(s0, s1, s2, s3):
     """Standard normal: 256-layer ziggurat (Marsaglia & Tsang 2000) on one xoshiro256** draw.
 
-    The low 8 bits pick the layer, the next bit the sign, the top 52 bits the abscissa; about
-    99 % of the draws return after one comparison, the rest take the wedge test or Marsaglia's
-    tail algorithm beyond ``r`` (both exact).  ``state`` is unused (it held the spare normal of
-    the polar Box–Muller generator used before).
+    State in four scalars (:func:`_u64`): returns ``(x, s0, s1, s2, s3)``.  The low 8 bits pick
+    the layer, the next bit the sign, the top 52 bits the abscissa; about 99 % of the draws return
+    after one comparison, the rest take the wedge test or Marsaglia's tail algorithm beyond ``r``
+    (both exact).
     """
     while True:
-        u = next_u64(s)
+        u, s0, s1, s2, s3 = _u64(s0, s1, s2, s3)
         idx = np.int64(u & np.uint64(0xFF))
         u = u >> np.uint64(8)
         sign = u & np.uint64(1)
@@ -190,15 +211,29 @@ def next_normal(s, state):
         if sign != 0:
             x = -x
         if rabs < _ZIG_K[idx]:
-            return x
+            return x, s0, s1, s2, s3
         if idx == 0:  # tail beyond r (Marsaglia 1964)
             while True:
-                xx = -_ZIG_INV_R * np.log1p(-next_double(s))
-                yy = -np.log1p(-next_double(s))
+                d1, s0, s1, s2, s3 = _double(s0, s1, s2, s3)
+                d2, s0, s1, s2, s3 = _double(s0, s1, s2, s3)
+                xx = -_ZIG_INV_R * np.log1p(-d1)
+                yy = -np.log1p(-d2)
                 if yy + yy > xx * xx:
-                    return -(_ZIG_R + xx) if sign != 0 else _ZIG_R + xx
-        elif (_ZIG_F[idx - 1] - _ZIG_F[idx]) * next_double(s) + _ZIG_F[idx] < np.exp(-0.5 * x * x):
-            return x
+                    return (-(_ZIG_R + xx) if sign != 0 else _ZIG_R + xx), s0, s1, s2, s3
+        else:
+            d1, s0, s1, s2, s3 = _double(s0, s1, s2, s3)
+            if (_ZIG_F[idx - 1] - _ZIG_F[idx]) * d1 + _ZIG_F[idx] < np.exp(-0.5 * x * x):
+                return x, s0, s1, s2, s3
+
+
+@njit(cache=True, inline="always")
+def next_normal(s, state):
+    """Standard normal (:func:`_normal`) on the xoshiro256** state ``s`` (uint64[4]), advanced in place.
+
+    ``state`` is unused (it held the spare normal of the polar Box–Muller generator used before).
+    """
+    x, s[0], s[1], s[2], s[3] = _normal(s[0], s[1], s[2], s[3])
+    return x
 
 
 @njit(cache=True)
@@ -359,14 +394,22 @@ def _build(pos, box, params, adj, deg, ncell):
     return pi, pj, flag, img
 
 
+#: Shift written into a gathered pair's ``us`` row when it is captured (:func:`_project`): its
+#: distance in :func:`_central_forces` is then ~1e30, beyond any cutoff, so the loop needs no test
+#: of the bonded flags.
+CAPTURED_SHIFT = 1e30
+
+
 @njit(cache=True)
 def _unbonded(pi, pj, flag, img, box):
-    """The listed pairs unbonded at build time, gathered for :func:`_central_forces`: ``(ui, uj, uk, us)``.
+    """The listed pairs unbonded at build time, gathered for :func:`_central_forces`: ``(ui, uj, uk, us, uq)``.
 
     ``uk`` their list positions (in order), ``ui``/``uj`` their spheres and ``us`` (M', 3) their
-    minimum-image shifts ``box * image count`` (the product :func:`_shifted` takes off).  The force
-    loop then reads contiguous arrays and meets bonded pairs only where they were captured since the
-    build (rare), instead of one in three listed pairs in a gel (a mispredicted skip).
+    minimum-image shifts ``box * image count`` (the product :func:`_shifted` takes off); ``uq`` (M,)
+    the inverse of ``uk`` (-1 for the pairs bonded at the build), with which :func:`_project` takes
+    a pair it captures out of the force loop (:data:`CAPTURED_SHIFT`).  The force loop then reads
+    contiguous arrays and never meets a bonded pair, instead of one in three listed pairs in a gel
+    (a mispredicted skip) and a flag test per pair.
     """
     m = 0
     for k in range(pi.shape[0]):
@@ -376,17 +419,19 @@ def _unbonded(pi, pj, flag, img, box):
     uj = np.empty(m, np.int64)
     uk = np.empty(m, np.int64)
     us = np.empty((m, 3), np.float64)
+    uq = np.full(pi.shape[0], -1, np.int64)
     q = 0
     for k in range(pi.shape[0]):
         if flag[k] == 0:
             ui[q] = pi[k]
             uj[q] = pj[k]
             uk[q] = k
+            uq[k] = q
             us[q, 0] = box[0] * img[k, 0]
             us[q, 1] = box[1] * img[k, 1]
             us[q, 2] = box[2] * img[k, 2]
             q += 1
-    return ui, uj, uk, us
+    return ui, uj, uk, us, uq
 
 
 #: Extra gap (radii) within which an unbonded pair seen in a full projection sweep is kept for
@@ -395,7 +440,8 @@ NEAR_MARGIN = 0.2
 
 
 @njit(cache=True)
-def _project(pos, box, params, state, istate, pi, pj, flag, img, bonds, adj, deg, near, moved, margin):
+def _project(pos, box, params, state, istate, pi, pj, flag, img, bonds, adj, deg, near, moved, margin, uq=None,
+             us=None):
     """Capture and shell projection sweeps (see module docstring); returns a Status.
 
     Gauss–Seidel sweeps over the listed pairs in list order.  A full sweep also collects,
@@ -406,7 +452,9 @@ def _project(pos, box, params, state, istate, pi, pj, flag, img, bonds, adj, deg
     have come within reach), and go on as a full sweep from the point where it no longer
     does.  Pairs are always visited in the order of the full list, so the result is that of
     full sweeps bit for bit, whatever ``margin`` (:data:`NEAR_MARGIN` in the kernels).
-    ``near`` (M,) int64 and ``moved`` (N,) float64 are work arrays.
+    ``near`` (M,) int64 and ``moved`` (N,) float64 are work arrays.  With ``uq, us`` of
+    :func:`_unbonded` a captured pair's shift row is set to :data:`CAPTURED_SHIFT` (it leaves the
+    force loop).
     """
     width = params[P_BOND_WIDTH]
     cap_lim = 2.0 + max(width, 0.0)  # width < 0 (no bond shell given) counts as 0: corr below keeps its sign
@@ -467,6 +515,8 @@ def _project(pos, box, params, state, istate, pi, pj, flag, img, bonds, adj, deg
                 adj[j, deg[j]] = i
                 deg[j] += 1
                 flag[k] = 1
+                if uq is not None:
+                    us[uq[k], 0] = CAPTURED_SHIFT  # out of the force loop (unbonded at the build: uq[k] >= 0)
             # overlap (r < 2) or stretched bond (r > cap_lim; with overlap_only only r < 2 gets here);
             # branch-free: after the first sweep in-shell pairs are about as frequent as out-of-shell
             # ones, and the branch was mispredicted half the time (a zero correction moves nothing,
@@ -608,8 +658,8 @@ def _central_forces(pos, box, params, ui, uj, uk, us, flag, table, t2, tp, force
     """Add the tabulated central pair force of every unbonded listed pair to ``force``; returns sum r F.
 
     The one pair-force loop of the three kernels, over the pairs unbonded at the list build
-    (``ui, uj, uk, us`` of :func:`_unbonded`, in list order; those captured since are skipped
-    by ``flag``).  The flexible and tangential kernels (``rigid=False``) read the r² force
+    (``ui, uj, uk, us`` of :func:`_unbonded`, in list order; those captured since are skipped:
+    by their :data:`CAPTURED_SHIFT`, or by ``flag`` in the rigid kernel).  The flexible and tangential kernels (``rigid=False``) read the r² force
     table ``t2, tp`` of :func:`_force_table_r2` (``F/r`` at ``s = r²`` by linear
     interpolation, times the pair's vector: no square root or division per pair; the drift
     cap, :func:`_cap_attraction`, only for the pairs within ``s_cap``), take each pair's
@@ -635,18 +685,20 @@ def _central_forces(pos, box, params, ui, uj, uk, us, flag, table, t2, tp, force
     s_cap = tp[3]
     vir = 0.0
     for q in range(ui.shape[0]):
-        if flag[uk[q]]:  # captured since the build
-            continue
         i = ui[q]
         j = uj[q]
         if rigid:
+            if flag[uk[q]]:  # captured since the build
+                continue
             if _internal(pos, box, i, j, lab):
                 continue
             dx = min_image(pos[j, 0] - pos[i, 0], box[0])
             dy = min_image(pos[j, 1] - pos[i, 1], box[1])
             dz = min_image(pos[j, 2] - pos[i, 2], box[2])
         else:
-            dx = (pos[j, 0] - pos[i, 0]) - us[q, 0]  # _shifted, with the product gathered
+            # _shifted, with the product gathered; a pair captured since the build has us[q, 0] =
+            # CAPTURED_SHIFT (_project) and fails the cutoff test
+            dx = (pos[j, 0] - pos[i, 0]) - us[q, 0]
             dy = (pos[j, 1] - pos[i, 1]) - us[q, 1]
             dz = (pos[j, 2] - pos[i, 2]) - us[q, 2]
         r2 = dx * dx + dy * dy + dz * dz
@@ -902,12 +954,21 @@ def _translate(pos, box, params, pi, pj, flag, force, rng, state):
     noise = params[P_NOISE]
     uc = params[P_LUB_RANGE]
     if uc <= 0.0 or pi.shape[0] == 0:
+        s0 = rng[0]  # the generator's state in registers for the pass (_u64)
+        s1 = rng[1]
+        s2 = rng[2]
+        s3 = rng[3]
         for i in range(n):
             for c in range(3):
                 x = pos[i, c] + force[i, c] * dt
                 if noise != 0.0:
-                    x += noise * next_normal(rng, state)
+                    g, s0, s1, s2, s3 = _normal(s0, s1, s2, s3)
+                    x += noise * g
                 pos[i, c] = x
+        rng[0] = s0
+        rng[1] = s1
+        rng[2] = s2
+        rng[3] = s3
         return
     m, lp, lv, lr, lk, ldk, lc, ldc = _lub_pairs(pos, box, pi, pj, flag, uc)
     a = np.empty((n, 3))
@@ -919,9 +980,17 @@ def _translate(pos, box, params, pi, pj, flag, force, rng, state):
             pos[i, c] += b[i, c] * dt
     if noise == 0.0:
         return
+    s0 = rng[0]
+    s1 = rng[1]
+    s2 = rng[2]
+    s3 = rng[3]
     for i in range(n):
         for c in range(3):
-            a[i, c] = next_normal(rng, state)
+            a[i, c], s0, s1, s2, s3 = _normal(s0, s1, s2, s3)
+    rng[0] = s0
+    rng[1] = s1
+    rng[2] = s2
+    rng[3] = s3
     _lub_apply_s(m, lp, lv, lk, a, b)  # b = S xi
     if params[P_LUB_NO_DRIFT] != 0.0:
         a[:, :] = 0.0
@@ -971,7 +1040,7 @@ def run(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rng, nst
 
     t2, tp = _force_table_r2(table, params)
     pi, pj, flag, img = _build(pos, box, params, adj, deg, ncell)
-    ui, uj, uk, us = _unbonded(pi, pj, flag, img, box)
+    ui, uj, uk, us, uq = _unbonded(pi, pj, flag, img, box)
     near = np.empty(pi.shape[0], np.int64)
     moved = np.zeros(n, np.float64)
     ref = pos.copy()
@@ -989,7 +1058,7 @@ def run(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rng, nst
         _translate(pos, box, params, pi, pj, flag, force, rng, state)
         if bonding:
             status = _project(pos, box, params, state, istate, pi, pj, flag, img, bonds, adj, deg, near, moved,
-                              NEAR_MARGIN)
+                              NEAR_MARGIN, uq, us)
             if status != Status.OK:
                 return status
         state[S_TIME] += dt
@@ -997,7 +1066,7 @@ def run(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rng, nst
         maxd2 = _max_displacement2(pos, ref, box, False)
         if maxd2 > half_skin2 and rc2 > 0.0:
             pi, pj, flag, img = _build(pos, box, params, adj, deg, ncell)
-            ui, uj, uk, us = _unbonded(pi, pj, flag, img, box)
+            ui, uj, uk, us, uq = _unbonded(pi, pj, flag, img, box)
             if near.shape[0] < pi.shape[0]:
                 near = np.empty(pi.shape[0], np.int64)
             for i in range(n):
@@ -1463,7 +1532,7 @@ def run_rigid(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rn
 
     t2, tp = _force_table_r2(table, params)
     pi, pj, flag, img = _build(pos, box, params, adj, deg, ncell)
-    ui, uj, uk, us = _unbonded(pi, pj, flag, img, box)
+    ui, uj, uk, us, uq = _unbonded(pi, pj, flag, img, box)
     ref = pos.copy()
     force = np.zeros((n, 3), np.float64)
     for _step in range(nsteps):
@@ -1488,7 +1557,7 @@ def run_rigid(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rn
         maxd2 = _max_displacement2(pos, ref, box, True)
         if maxd2 > half_skin2 and rc2 > 0.0:
             pi, pj, flag, img = _build(pos, box, params, adj, deg, ncell)
-            ui, uj, uk, us = _unbonded(pi, pj, flag, img, box)
+            ui, uj, uk, us, uq = _unbonded(pi, pj, flag, img, box)
             for i in range(n):
                 for c in range(3):
                     ref[i, c] = pos[i, c]
@@ -1644,7 +1713,7 @@ def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncel
 
     t2, tp = _force_table_r2(table, params)
     pi, pj, flag, img = _build(pos, box, params, adj, deg, ncell)
-    ui, uj, uk, us = _unbonded(pi, pj, flag, img, box)
+    ui, uj, uk, us, uq = _unbonded(pi, pj, flag, img, box)
     near = np.empty(pi.shape[0], np.int64)
     moved = np.zeros(n, np.float64)
     ref = pos.copy()
@@ -1665,14 +1734,21 @@ def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncel
         state[S_VIRIAL_STEPS] += 1.0
         _translate(pos, box, params, pi, pj, flag, force, rng, state)
         if rotate:
+            s0 = rng[0]  # the generator's state in registers for the pass (_u64)
+            s1 = rng[1]
+            s2 = rng[2]
+            s3 = rng[3]
             for i in range(n):
                 tx = SPHERE_ROT_MOBILITY * torque[i, 0] * dt
                 ty = SPHERE_ROT_MOBILITY * torque[i, 1] * dt
                 tz = SPHERE_ROT_MOBILITY * torque[i, 2] * dt
                 if noise != 0.0:
-                    tx += rnoise * next_normal(rng, state)
-                    ty += rnoise * next_normal(rng, state)
-                    tz += rnoise * next_normal(rng, state)
+                    g, s0, s1, s2, s3 = _normal(s0, s1, s2, s3)
+                    tx += rnoise * g
+                    g, s0, s1, s2, s3 = _normal(s0, s1, s2, s3)
+                    ty += rnoise * g
+                    g, s0, s1, s2, s3 = _normal(s0, s1, s2, s3)
+                    tz += rnoise * g
                 # the Rodrigues matrix and its product with orient[i] in scalars (a helper's array
                 # arguments cost a reference count per sphere)
                 r00, r01, r02, r10, r11, r12, r20, r21, r22 = _rodrigues(tx, ty, tz)
@@ -1691,6 +1767,10 @@ def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncel
                 orient[i, 0] = r00 * x + r01 * y + r02 * z
                 orient[i, 1] = r10 * x + r11 * y + r12 * z
                 orient[i, 2] = r20 * x + r21 * y + r22 * z
+            rng[0] = s0
+            rng[1] = s1
+            rng[2] = s2
+            rng[3] = s3
             nb = istate[I_NBONDS]
             for b in range(nb):
                 i = bonds[b, 0]
@@ -1710,7 +1790,7 @@ def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncel
         if bonding:
             nb_old = istate[I_NBONDS]
             status = _project(pos, box, params, state, istate, pi, pj, flag, img, bonds, adj, deg, near, moved,
-                              NEAR_MARGIN)
+                              NEAR_MARGIN, uq, us)
             _init_anchors(pos, box, bonds, anchors, nb_old, istate[I_NBONDS])
             if status != Status.OK:
                 return status
@@ -1719,7 +1799,7 @@ def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncel
         maxd2 = _max_displacement2(pos, ref, box, False)
         if maxd2 > half_skin2 and rc2 > 0.0:
             pi, pj, flag, img = _build(pos, box, params, adj, deg, ncell)
-            ui, uj, uk, us = _unbonded(pi, pj, flag, img, box)
+            ui, uj, uk, us, uq = _unbonded(pi, pj, flag, img, box)
             if near.shape[0] < pi.shape[0]:
                 near = np.empty(pi.shape[0], np.int64)
             for i in range(n):
