@@ -167,7 +167,7 @@ def _print_row(row):
     print(f"  spheropack : {_fmt(row['spheropack'])}")
     if "rate_ratio" in row:
         print(f"  collisions/s ratio (polypack/spheropack) = {row['rate_ratio']:.2f}, "
-              f"wall-time ratio = {row['time_ratio']:.2f}")
+              f"wall-time speed-up (spheropack/polypack) = {1.0 / row['time_ratio']:.2f}")
 
 
 if __name__ == "__main__":
