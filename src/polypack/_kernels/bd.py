@@ -9,15 +9,16 @@ with ``F`` the total force in units of ``kT/a``, followed by constraint projecti
 
 * Unbonded pairs closer than ``P_R_CUT`` (centre distance) feel the central force
   ``table`` at surface separation ``h = r - 2``, linearly interpolated on a uniform
-  grid from ``P_TAB_LO`` with spacing ``P_TAB_DH`` (clamped at both ends).  With
+  grid from ``P_TAB_LO`` with spacing ``P_TAB_DH`` (``F`` clamped at both ends: below the
+  table's start, an overlap beyond it, the force is the first entry's).  With
   ``P_CAP_DRIFT > 0`` an *attractive* pair force is capped so that it closes at most
   ``P_CAP_DRIFT`` of the gap ``h`` in one step (the deep inner side of a DLVO well is
   not resolvable with Brownian steps; the cap makes the pair approach contact
   geometrically instead of jumping through it).  One pair loop, :func:`_central_forces`, serves
   all three kernels; the flexible and tangential ones read ``F/r`` from a table in ``r²``
   resampled from this one (:func:`_force_table_r2`: no square root or division per pair, the
-  forces within the interpolation error of the h table), the rigid one the h table itself
-  (:func:`_pair_force`).
+  forces within the interpolation error of the h table; below that table's start they take the
+  h table itself), the rigid one the h table everywhere (:func:`_pair_force`).
 * Bonds (``P_BOND_WIDTH >= 0``): after each step, Gauss–Seidel sweeps over the
   Verlet pairs (at most ``P_SWEEPS``, until the largest correction is below
   ``P_PROJ_TOL``) bond every unbonded pair with ``h < P_BOND_WIDTH`` (capture into the
@@ -86,6 +87,9 @@ N_PARAMS = 18
 
 #: cluster labels for :func:`_central_forces` in the kernels without rigid clusters (unused there)
 _NO_LABELS = np.zeros(1, np.int64)
+#: r² table ``t2, tp`` for :func:`_central_forces` in the rigid kernel (unused there; no table is built)
+_NO_R2_TABLE = np.zeros(2)
+_NO_R2_PARAMS = np.array([0.0, 1.0, 0.0, -1.0])
 
 #: Gap (radii) below which the Honig factor is held constant (its derivative set to zero).
 LUB_U_FLOOR = 1e-4
@@ -136,6 +140,24 @@ def _u64(s0, s1, s2, s3):
     s2 ^= t
     s3 = _rotl(s3, 45)
     return result, s0, s1, s2, s3
+
+
+@njit(cache=True, inline="always")
+def _rng_load(rng):
+    """The generator's state ``rng`` (uint64[4]) as four scalars ``(s0, s1, s2, s3)`` for a pass (:func:`_u64`).
+
+    Called once per pass (not per draw), so the array argument's reference count is paid once.
+    """
+    return rng[0], rng[1], rng[2], rng[3]
+
+
+@njit(cache=True, inline="always")
+def _rng_store(rng, s0, s1, s2, s3):
+    """Store the state a pass held in four scalars (:func:`_rng_load`) back into ``rng`` (uint64[4])."""
+    rng[0] = s0
+    rng[1] = s1
+    rng[2] = s2
+    rng[3] = s3
 
 
 @njit(cache=True, inline="always")
@@ -401,15 +423,16 @@ CAPTURED_SHIFT = 1e30
 
 
 @njit(cache=True)
-def _unbonded(pi, pj, flag, img, box):
+def _unbonded(pi, pj, flag, img, box, inverse=True):
     """The listed pairs unbonded at build time, gathered for :func:`_central_forces`: ``(ui, uj, uk, us, uq)``.
 
     ``uk`` their list positions (in order), ``ui``/``uj`` their spheres and ``us`` (M', 3) their
     minimum-image shifts ``box * image count`` (the product :func:`_shifted` takes off); ``uq`` (M,)
     the inverse of ``uk`` (-1 for the pairs bonded at the build), with which :func:`_project` takes
-    a pair it captures out of the force loop (:data:`CAPTURED_SHIFT`).  The force loop then reads
-    contiguous arrays and never meets a bonded pair, instead of one in three listed pairs in a gel
-    (a mispredicted skip) and a flag test per pair.
+    a pair it captures out of the force loop (:data:`CAPTURED_SHIFT`); with ``inverse=False``
+    (the rigid kernel, which skips captured pairs by their flag) ``uq`` is empty.  The force loop
+    then reads contiguous arrays and never meets a bonded pair, instead of one in three listed
+    pairs in a gel (a mispredicted skip) and a flag test per pair.
     """
     m = 0
     for k in range(pi.shape[0]):
@@ -419,14 +442,15 @@ def _unbonded(pi, pj, flag, img, box):
     uj = np.empty(m, np.int64)
     uk = np.empty(m, np.int64)
     us = np.empty((m, 3), np.float64)
-    uq = np.full(pi.shape[0], -1, np.int64)
+    uq = np.full(pi.shape[0] if inverse else 0, -1, np.int64)
     q = 0
     for k in range(pi.shape[0]):
         if flag[k] == 0:
             ui[q] = pi[k]
             uj[q] = pj[k]
             uk[q] = k
-            uq[k] = q
+            if inverse:
+                uq[k] = q
             us[q, 0] = box[0] * img[k, 0]
             us[q, 1] = box[1] * img[k, 1]
             us[q, 2] = box[2] * img[k, 2]
@@ -592,8 +616,10 @@ def _cap_attraction(f, h, cap_drift, dt, uc):
 
 
 #: The r² force table of the pair loop (:func:`_force_table_r2`): its spacing in ``s = r²`` is that
-#: of the h table at the table's start divided by ``R2_REFINE`` (finer in h further out, where
-#: ``ds = 2 r dh``), with at least ``R2_MIN_INTERVALS`` and at most ``R2_MAX_INTERVALS`` intervals.
+#: of the h table at the table's start divided by the refinement factor ``R2_REFINE`` (finer in h
+#: further out, where ``ds = 2 r dh``), with at least ``R2_MIN_INTERVALS`` intervals and at most
+#: ``R2_MAX_INTERVALS`` or the number that spans the h table at that spacing, whichever is larger
+#: (so the limit binds only for a cutoff far beyond the h table's end, where ``F`` is constant).
 R2_REFINE = 2
 R2_MIN_INTERVALS = 1024
 R2_MAX_INTERVALS = 1 << 18
@@ -604,19 +630,22 @@ def _force_table_r2(table, params):
     """The pair loop's force table: ``F(r) / r`` on a uniform grid in ``s = r²``; returns ``(t2, tp)``.
 
     No square root and no division per pair: the loop reads ``F(r)/r`` at ``s = r²`` by
-    linear interpolation (clamped at both ends) and multiplies it by the pair's vector.
-    The nodes ``s_k = s_lo + k ds`` run from ``s_lo = max(2 + lo, 1)²`` (``lo`` the h table's
-    start) to the cutoff ``r_c²``; ``t2[k] = F(r_k) / r_k`` with ``F`` the h table's
-    interpolant without the drift cap (:func:`_pair_force`), so the loop's force is that
-    interpolant re-interpolated in ``s`` (spacing :data:`R2_REFINE`; the error against the
-    h table and against the exact DLVO force is bounded in tests/test_bd_kernel.py).  ``t2``
-    has one padding entry, so the clamped top index needs no test.  ``tp`` holds ``s_lo``,
-    ``1 / ds``, the clamp ``m`` (the number of intervals) and ``s_cap``: pairs with ``s <= s_cap``
-    take the exact drift cap (:func:`_cap_attraction`, a square root and a division); beyond
-    it no interpolated attraction can reach the cap (checked interval by interval at the
-    build, with the cap's value at each interval's inner end and ``β_eff >= 1``), so the
-    cap is never tested there.  ``s_cap = -1`` when there is no cap (``P_CAP_DRIFT`` or
-    ``P_DT`` zero).
+    linear interpolation and multiplies it by the pair's vector.  The nodes
+    ``s_k = s_lo + k ds`` run from ``s_lo = max(2 + lo, 1)²`` (``lo`` the h table's start) to the
+    cutoff ``r_c²``; ``t2[k] = F(r_k) / r_k`` with ``F`` the h table's interpolant without the
+    drift cap (:func:`_pair_force`), so the loop's force is that interpolant re-interpolated
+    in ``s`` (spacing: :data:`R2_REFINE` times finer than the h table's at the start, within
+    the interval counts given there; the error against the h table and against the exact DLVO
+    force is bounded in tests/test_bd_kernel.py).  Below ``s_lo`` (an overlap beyond the table)
+    the loop takes the h table itself (:func:`_central_forces`), so the index is clamped to
+    the table only to stay inside it; ``t2`` has one padding entry, so the clamped top index
+    needs no test.  ``tp`` holds ``s_lo``, ``1 / ds``, the clamp ``m`` (the number of
+    intervals) and ``s_cap``: pairs with ``s <= s_cap`` take the exact drift cap
+    (:func:`_cap_attraction`, a square root and a division); beyond it no interpolated
+    attraction can reach the cap (checked interval by interval at the build, with the cap's
+    value at each interval's inner end and ``β_eff >= 1``), so the cap is never tested there.
+    ``s_cap = -1`` when there is no cap (``P_CAP_DRIFT`` or ``P_DT`` zero) or it can bind
+    nowhere on the table.
     """
     lo = params[P_TAB_LO]
     dh = params[P_TAB_DH]
@@ -624,8 +653,11 @@ def _force_table_r2(table, params):
     r_lo = max(2.0 + lo, 1.0)
     s_lo = r_lo * r_lo
     s_hi = max(params[P_R_CUT] * params[P_R_CUT], 1.01 * s_lo)  # no pairs (r_c <= 0) or all inside the start
-    m = int(np.ceil((s_hi - s_lo) / (2.0 * r_lo * dh / R2_REFINE)))
-    m = min(max(m, R2_MIN_INTERVALS), R2_MAX_INTERVALS)
+    ds0 = 2.0 * r_lo * dh / R2_REFINE  # the spacing asked for
+    r_end = 2.0 + lo + (table.shape[0] - 1) * dh  # the h table's end
+    m_table = int(np.ceil((r_end * r_end - s_lo) / ds0))  # intervals spanning the h table at that spacing
+    m = int(np.ceil((s_hi - s_lo) / ds0))
+    m = min(max(m, R2_MIN_INTERVALS), max(R2_MAX_INTERVALS, m_table))
     ds = (s_hi - s_lo) / m
     t2 = np.empty(m + 2)
     for k in range(m + 1):
@@ -636,8 +668,7 @@ def _force_table_r2(table, params):
     dt = params[P_DT]
     s_cap = -1.0
     if cap_drift > 0.0 and dt > 0.0:
-        if t2[0] < 0.0:  # clamped attraction below the grid: the cap binds inside contact
-            s_cap = s_lo + ds
+        # below s_lo the loop takes the h table with its exact cap (_central_forces): no test needed there
         for k in range(m):
             att = max(-t2[k], -t2[k + 1])  # largest attraction / r of the interpolant on the interval
             if att > 0.0:
@@ -659,19 +690,25 @@ def _central_forces(pos, box, params, ui, uj, uk, us, flag, table, t2, tp, force
 
     The one pair-force loop of the three kernels, over the pairs unbonded at the list build
     (``ui, uj, uk, us`` of :func:`_unbonded`, in list order; those captured since are skipped:
-    by their :data:`CAPTURED_SHIFT`, or by ``flag`` in the rigid kernel).  The flexible and tangential kernels (``rigid=False``) read the r² force
-    table ``t2, tp`` of :func:`_force_table_r2` (``F/r`` at ``s = r²`` by linear
-    interpolation, times the pair's vector: no square root or division per pair; the drift
-    cap, :func:`_cap_attraction`, only for the pairs within ``s_cap``), take each pair's
-    minimum image from the gathered shifts ``us`` of the Verlet list (:func:`_shifted`,
-    ``min_image`` bit for bit for spheres unwrapped up to 1.5 boxes apart) and apply the
-    lubrication range of ``params`` to the attraction cap.  The rigid kernel (``rigid=True``)
-    keeps the h table (:func:`_pair_force` at ``h = r - 2``, divided by ``r``; its runs are
-    those before the r² table bit for bit), skips the pairs inside one rigid cluster
-    (``lab``, see :func:`_internal`; their forces cancel in the cluster's force and torque),
-    takes the plain minimum image (its clusters are shifted by box vectors on merging, so
-    stored image counts would go stale) and caps without lubrication; ``lab`` is unused
-    otherwise.  The branch is loop-invariant, so each kernel runs its own copy of the loop.
+    by their :data:`CAPTURED_SHIFT`, or by ``flag`` in the rigid kernel).
+
+    The flexible and tangential kernels (``rigid=False``) read the r² force table ``t2, tp`` of
+    :func:`_force_table_r2` (``F/r`` at ``s = r²`` by linear interpolation, times the pair's
+    vector: no square root or division per pair).  Only the pairs with ``s <= max(s_cap, s_lo)``
+    take a rare branch with a square root: within ``s_cap`` the drift cap
+    (:func:`_cap_attraction`, with the lubrication range of ``params``), below the table's
+    start ``s_lo`` (an overlap beyond the table) the h table's force itself (:func:`_pair_force`,
+    capped), so the three kernels agree there.  Each pair's minimum image comes from the gathered
+    shifts ``us`` of the Verlet list (:func:`_shifted`, ``min_image`` bit for bit for spheres
+    unwrapped up to 1.5 boxes apart).
+
+    The rigid kernel (``rigid=True``) keeps the h table (:func:`_pair_force` at ``h = r - 2``,
+    divided by ``r``; its runs are those before the r² table bit for bit; ``t2, tp`` unused),
+    skips the pairs inside one rigid cluster (``lab``, see :func:`_internal`; their forces
+    cancel in the cluster's force and torque), takes the plain minimum image (its clusters are
+    shifted by box vectors on merging, so stored image counts would go stale) and caps without
+    lubrication; ``lab`` is unused otherwise.  The branch is loop-invariant, so each kernel
+    runs its own copy of the loop.
     """
     dt = params[P_DT]
     rc2 = params[P_R_CUT] * params[P_R_CUT]
@@ -682,7 +719,7 @@ def _central_forces(pos, box, params, ui, uj, uk, us, flag, table, t2, tp, force
     s_lo = tp[0]
     inv_ds = tp[1]
     top = tp[2]
-    s_cap = tp[3]
+    s_slow = max(tp[3], s_lo)  # the rare branch: drift cap (s <= s_cap) or below the table (s < s_lo)
     vir = 0.0
     for q in range(ui.shape[0]):
         i = ui[q]
@@ -710,13 +747,16 @@ def _central_forces(pos, box, params, ui, uj, uk, us, flag, table, t2, tp, force
             vir += f * r
             fr = f / r
         else:
-            t = min(max((r2 - s_lo) * inv_ds, 0.0), top)
+            t = min(max((r2 - s_lo) * inv_ds, 0.0), top)  # clamped: the index stays inside t2
             c = int(t)
             w = t - c
             fr = (1.0 - w) * t2[c] + w * t2[c + 1]  # F / r
-            if r2 <= s_cap:  # the drift cap may bind: exact, at r
-                r = np.sqrt(r2)
-                fr = _cap_attraction(fr * r, r - 2.0, cap_drift, dt, uc) / r
+            if r2 <= s_slow:
+                r = max(np.sqrt(r2), 1e-12)  # (coincident centres: no force, as the vector is zero)
+                if r2 < s_lo:  # below the table (an overlap beyond it): the h table's force, capped
+                    fr = _pair_force(r - 2.0, table, lo, inv_dh, cap_drift, dt, uc) / r
+                else:  # the drift cap may bind: exact, at r
+                    fr = _cap_attraction(fr * r, r - 2.0, cap_drift, dt, uc) / r
             vir += fr * r2
         force[i, 0] -= fr * dx
         force[i, 1] -= fr * dy
@@ -954,10 +994,7 @@ def _translate(pos, box, params, pi, pj, flag, force, rng, state):
     noise = params[P_NOISE]
     uc = params[P_LUB_RANGE]
     if uc <= 0.0 or pi.shape[0] == 0:
-        s0 = rng[0]  # the generator's state in registers for the pass (_u64)
-        s1 = rng[1]
-        s2 = rng[2]
-        s3 = rng[3]
+        s0, s1, s2, s3 = _rng_load(rng)  # the generator's state in registers for the pass (_u64)
         for i in range(n):
             for c in range(3):
                 x = pos[i, c] + force[i, c] * dt
@@ -965,10 +1002,7 @@ def _translate(pos, box, params, pi, pj, flag, force, rng, state):
                     g, s0, s1, s2, s3 = _normal(s0, s1, s2, s3)
                     x += noise * g
                 pos[i, c] = x
-        rng[0] = s0
-        rng[1] = s1
-        rng[2] = s2
-        rng[3] = s3
+        _rng_store(rng, s0, s1, s2, s3)
         return
     m, lp, lv, lr, lk, ldk, lc, ldc = _lub_pairs(pos, box, pi, pj, flag, uc)
     a = np.empty((n, 3))
@@ -980,17 +1014,11 @@ def _translate(pos, box, params, pi, pj, flag, force, rng, state):
             pos[i, c] += b[i, c] * dt
     if noise == 0.0:
         return
-    s0 = rng[0]
-    s1 = rng[1]
-    s2 = rng[2]
-    s3 = rng[3]
+    s0, s1, s2, s3 = _rng_load(rng)
     for i in range(n):
         for c in range(3):
             a[i, c], s0, s1, s2, s3 = _normal(s0, s1, s2, s3)
-    rng[0] = s0
-    rng[1] = s1
-    rng[2] = s2
-    rng[3] = s3
+    _rng_store(rng, s0, s1, s2, s3)
     _lub_apply_s(m, lp, lv, lk, a, b)  # b = S xi
     if params[P_LUB_NO_DRIFT] != 0.0:
         a[:, :] = 0.0
@@ -1530,9 +1558,8 @@ def run_rigid(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rn
     half_skin2 = 0.25 * params[P_SKIN] * params[P_SKIN]
     ktrap = params[P_TRAP_K]
 
-    t2, tp = _force_table_r2(table, params)
     pi, pj, flag, img = _build(pos, box, params, adj, deg, ncell)
-    ui, uj, uk, us, uq = _unbonded(pi, pj, flag, img, box)
+    ui, uj, uk, us, _ = _unbonded(pi, pj, flag, img, box, False)  # captured pairs skipped by their flag
     ref = pos.copy()
     force = np.zeros((n, 3), np.float64)
     for _step in range(nsteps):
@@ -1540,7 +1567,8 @@ def run_rigid(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rn
             force[i, 0] = 0.0
             force[i, 1] = 0.0
             force[i, 2] = 0.0
-        vir = _central_forces(pos, box, params, ui, uj, uk, us, flag, table, t2, tp, force, lab, True)
+        vir = _central_forces(pos, box, params, ui, uj, uk, us, flag, table, _NO_R2_TABLE, _NO_R2_PARAMS, force,
+                              lab, True)
         if ktrap != 0.0:
             _trap_forces(pos, box, ktrap, force)
         state[S_VIRIAL] += vir
@@ -1557,7 +1585,7 @@ def run_rigid(pos, box, params, state, istate, table, bonds, adj, deg, ncell, rn
         maxd2 = _max_displacement2(pos, ref, box, True)
         if maxd2 > half_skin2 and rc2 > 0.0:
             pi, pj, flag, img = _build(pos, box, params, adj, deg, ncell)
-            ui, uj, uk, us, uq = _unbonded(pi, pj, flag, img, box)
+            ui, uj, uk, us, _ = _unbonded(pi, pj, flag, img, box, False)
             for i in range(n):
                 for c in range(3):
                     ref[i, c] = pos[i, c]
@@ -1734,10 +1762,7 @@ def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncel
         state[S_VIRIAL_STEPS] += 1.0
         _translate(pos, box, params, pi, pj, flag, force, rng, state)
         if rotate:
-            s0 = rng[0]  # the generator's state in registers for the pass (_u64)
-            s1 = rng[1]
-            s2 = rng[2]
-            s3 = rng[3]
+            s0, s1, s2, s3 = _rng_load(rng)  # the generator's state in registers for the pass (_u64)
             for i in range(n):
                 tx = SPHERE_ROT_MOBILITY * torque[i, 0] * dt
                 ty = SPHERE_ROT_MOBILITY * torque[i, 1] * dt
@@ -1767,10 +1792,7 @@ def run_tangential(pos, box, params, state, istate, table, bonds, adj, deg, ncel
                 orient[i, 0] = r00 * x + r01 * y + r02 * z
                 orient[i, 1] = r10 * x + r11 * y + r12 * z
                 orient[i, 2] = r20 * x + r21 * y + r22 * z
-            rng[0] = s0
-            rng[1] = s1
-            rng[2] = s2
-            rng[3] = s3
+            _rng_store(rng, s0, s1, s2, s3)
             nb = istate[I_NBONDS]
             for b in range(nb):
                 i = bonds[b, 0]
