@@ -685,6 +685,15 @@ def _force_table_r2(table, params):
 
 
 @njit(cache=True)
+def _below_table(r, table, lo, inv_dh, cap_drift, dt, uc):
+    """``F / r`` of a pair below the r² table's start (:func:`_central_forces`): the h table's force, capped.
+
+    Not inlined: the rare branch then costs the hot loop one call instead of the interpolation's code.
+    """
+    return _pair_force(r - 2.0, table, lo, inv_dh, cap_drift, dt, uc) / r
+
+
+@njit(cache=True)
 def _central_forces(pos, box, params, ui, uj, uk, us, flag, table, t2, tp, force, lab, rigid):
     """Add the tabulated central pair force of every unbonded listed pair to ``force``; returns sum r F.
 
@@ -754,7 +763,7 @@ def _central_forces(pos, box, params, ui, uj, uk, us, flag, table, t2, tp, force
             if r2 <= s_slow:
                 r = max(np.sqrt(r2), 1e-12)  # (coincident centres: no force, as the vector is zero)
                 if r2 < s_lo:  # below the table (an overlap beyond it): the h table's force, capped
-                    fr = _pair_force(r - 2.0, table, lo, inv_dh, cap_drift, dt, uc) / r
+                    fr = _below_table(r, table, lo, inv_dh, cap_drift, dt, uc)
                 else:  # the drift cap may bind: exact, at r
                     fr = _cap_attraction(fr * r, r - 2.0, cap_drift, dt, uc) / r
             vir += fr * r2
