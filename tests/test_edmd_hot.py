@@ -1,6 +1,7 @@
 """The hot path of the 3D event-driven packer (issue 33): the pruned pair time gives the same
-next event as the plain one (the split event loop is covered bit for bit by tests/test_golden.py
-and its synchronisation returns by test_pack_options_change_speed_not_physics)."""
+next event as the plain one, the event loop keeps its calendar (heap and fresh predictions) after
+every event (the split event loop is covered bit for bit by tests/test_golden.py and its
+synchronisation returns by test_pack_options_change_speed_not_physics)."""
 
 import numpy as np
 import pytest
@@ -49,6 +50,113 @@ def test_pair_time_below_is_pair_time_where_it_is_below_best():
         assert np.all(got[~below, 1] >= best[~below])  # never a false smaller time
         shortcut += (got[:, 1] == np.inf).sum() - (got[:, 0] == np.inf).sum()
     assert shortcut > 500  # the shortcut is taken (with the random best)
+
+
+def _event_loop_setup(x, v, g, box, t, t_ref=100.0, alpha=0.3, dilute=0.5, margin_cap=3.0):
+    """The state :func:`edmd.run_chunk` hands its event loop after a global rebuild (the same
+    record and heap views, renumbering, lists, shell grid, first predictions and heap), built in
+    Python so that a test can run the loop one event at a time and look at its calendar."""
+    n = g.shape[0]
+    E = edmd._aligned_rows(n + 1, 8)
+    Ei = E.view(np.int32)
+    Ei[:] = 0
+    xb, rho, ev_t = E[:n, edmd.E_XB:edmd.E_XB + 3], E[:n, edmd.E_RHO], E[:n, edmd.E_T]
+    off, nn, ev_p, ev_c = Ei[:, edmd.I_OFF], Ei[:n, edmd.I_NN], Ei[:n, edmd.I_P], Ei[:n, edmd.I_C]
+    cnt, hpos = Ei[:n, edmd.I_CNT], Ei[:n, edmd.I_HPOS]
+    H = edmd._aligned_rows(n + edmd.HEAP_ROW0 + 1, 2)
+    hk = H[edmd.HEAP_ROW0:edmd.HEAP_ROW0 + n, 0]
+    hi = H.view(np.int64)[edmd.HEAP_ROW0:edmd.HEAP_ROW0 + n, 1]
+    level, nlev, _ = edmd._levels(g)
+    g_margin = margin_cap * float(np.median(g))
+    rho_cap = 0.249 * float(box.min())
+    orig, new = np.empty(n, np.int64), np.empty(n, np.int64)
+    edmd._curve_order(x, box, orig, new)
+    lev = level[orig].copy()
+    D = edmd.shell_reach(t, t_ref, alpha, dilute)
+    rho_o = np.array([edmd._shell_radius(g[k], t, D, g_margin, rho_cap) for k in range(n)])
+    xb[new] = x
+    rho[new] = rho_o
+    rho_max_lv = np.zeros(nlev)
+    np.maximum.at(rho_max_lv, level, rho_o)
+    off_b, nn_b, nbr = edmd.build_lists(x, rho_o, box, lev, nlev, np.int64(8), new)
+    off[:] = off_b
+    nn[:] = nn_b
+    nc, coff, head, nxt, prv, cell = edmd._grid_build(xb, lev, box, rho_max_lv, nlev, n, new)
+    P = edmd._aligned_rows(n, edmd.N_REC)
+    edmd._to_records(P, x, v, np.full(n, t), g, orig)
+    for i in range(n):
+        edmd._predict(i, t, P, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
+    edmd._heap_build_order(hk, hi, hpos, ev_t, new, n)
+    return dict(P=P, box=box, off=off, nn=nn, nbr=nbr, xb=xb, rho=rho, cnt=cnt, ev_t=ev_t, ev_p=ev_p, ev_c=ev_c,
+                hk=hk, hi=hi, hpos=hpos, lev=lev, nlev=nlev, rho_max_lv=rho_max_lv,
+                grid=(nc, coff, head, nxt, prv, cell),
+                t_ref=t_ref, alpha=alpha, dilute=dilute, g_margin=g_margin, rho_cap=rho_cap)
+
+
+def test_event_calendar_after_every_event():
+    """The event loop one event at a time (``max_events`` one more per call) on 30 growing spheres
+    of two sizes: after every event each sphere's heap slot holds its event time, the 4-ary heap is
+    ordered, no event lies before the present, and the sphere(s) the event moved hold a fresh
+    prediction: after a collision both partners, after a shell exit or a stale event the one
+    sphere (their events re-predicted from the state the loop left must come out the same, bit for
+    bit).  A collision whose second sphere kept its old event fails here within one event, where a
+    whole pack would run on with a wrong calendar (issue 33: the reschedule loop of the inlined
+    prediction)."""
+    rng = np.random.default_rng(4)
+    n, t = 30, 100.0
+    g = np.where(np.arange(n) % 5 == 0, 0.02, 0.01)  # radii 2 and 1 at t = 100: two size levels
+    L = (4.0 / 3.0 * np.pi * ((g * t) ** 3).sum() / 0.25) ** (1.0 / 3.0)  # volume fraction 0.25
+    box = np.full(3, L)
+    x = np.empty((n, 3))
+    for k in range(n):  # random sequential addition, no overlap
+        while True:
+            p = rng.random(3) * L
+            d = x[:k] - p
+            d -= L * np.round(d / L)
+            if np.all((d ** 2).sum(axis=1) > (g[:k] * t + g[k] * t + 0.01) ** 2):
+                break
+        x[k] = p
+    v = rng.normal(size=(n, 3))
+    v -= v.mean(axis=0)
+    s = _event_loop_setup(x, v, g, box, t)
+    P, hk, hi, hpos, cnt, ev_t, ev_p, ev_c = (s[k] for k in ("P", "hk", "hi", "hpos", "cnt", "ev_t", "ev_p", "ev_c"))
+    state = np.zeros(edmd.N_STATE)
+    hist = np.zeros((4, 3))
+    fs = np.array([t, 0.0, 0.0, t, 0.5 * (v ** 2).sum()])
+    ks = np.array([0, 0, 0, 0, 8, 0, edmd.CHUNK_DONE], np.int64)
+    seen = {"collision": 0, "exit": 0, "stale": 0}
+
+    def repredicted_same(q):
+        before = (ev_t[q], ev_p[q], ev_c[q])
+        edmd._predict(q, fs[0], P, box, s["off"], s["nn"], s["nbr"], s["xb"], s["rho"], cnt, ev_t, ev_p, ev_c)
+        return before == (ev_t[q], ev_p[q], ev_c[q])
+
+    for step in range(600):
+        i = hi[0]
+        te = hk[0]
+        j = ev_p[i]
+        kind = "exit" if j < 0 else "collision" if cnt[j] == ev_c[i] else "stale"
+        cnt0 = cnt.copy()
+        out = edmd._event_loop(P, box, state, hist, s["off"], s["nn"], s["nbr"], s["xb"], s["rho"], cnt, ev_t, ev_p,
+                               ev_c, hk, hi, hpos, s["lev"], s["nlev"], s["rho_max_lv"], *s["grid"], fs, ks, np.inf,
+                               10 ** 9, np.inf, 10 ** 9, s["t_ref"], s["alpha"], s["dilute"], int(ks[1]) + 1, 10 ** 9,
+                               s["g_margin"], s["rho_cap"])
+        assert out == edmd.LOOP_STOP and ks[6] == edmd.EVENT_BUDGET, (step, out, ks[6])
+        assert fs[0] == te, step
+        seen[kind] += 1
+        moved = [i, j] if kind == "collision" else [i]
+        if kind == "collision":
+            cnt0[moved] += 1
+        assert np.array_equal(cnt, cnt0), (step, kind)
+        # the calendar: every sphere's key in its slot, the heap ordered, nothing in the past
+        assert np.array_equal(hi[hpos], np.arange(n)), step
+        assert np.array_equal(hk[hpos], ev_t), step
+        assert np.all(hk[(np.arange(1, n) - 1) // 4] <= hk[1:]), step
+        assert np.all(ev_t >= fs[0]), step
+        for q in moved:
+            assert P[q, edmd.R_T] == fs[0], (step, kind, q)
+            assert repredicted_same(q), (step, kind, q)
+    assert seen["collision"] >= 100 and seen["exit"] >= 20 and seen["stale"] >= 5, seen  # every branch, often
 
 
 

@@ -241,7 +241,9 @@ def _sift_up(hk, hi, hpos, k):
     hpos[idx] = k
 
 
-@njit(cache=True, _nrt=False, inline="always")  # no reference counting (see _event_loop); inlined
+# no reference counting (see _event_loop); inlined wherever it is called: in _heap_update (hence in the
+# event loop and at edmd2d's four _heap_update calls), _heap_build and _heap_build_order
+@njit(cache=True, _nrt=False, inline="always")
 def _sift_down(hk, hi, hpos, k, n):
     """Move heap slot ``k`` towards the leaves (4-ary min-heap, keys stored inline)."""
     key = hk[k]
@@ -292,7 +294,9 @@ def _sift_down(hk, hi, hpos, k, n):
     hpos[idx] = k
 
 
-@njit(cache=True, _nrt=False, inline="always")  # no reference counting (see _event_loop); inlined
+# no reference counting (see _event_loop); inlined wherever it is called: the event loop's reschedule loop
+# and the four calls in the event loop of polypack._kernels.edmd2d
+@njit(cache=True, _nrt=False, inline="always")
 def _heap_update(hk, hi, hpos, i, key, n):
     """Set the key of sphere ``i`` and restore the heap order."""
     k = hpos[i]
@@ -522,7 +526,9 @@ def _prefetch_neighbours(i, P, off, nn, nbr):
         _prefetch_row(P, nbr[k])
 
 
-@njit(cache=True, _nrt=False, inline="always")  # no reference counting (see _event_loop); inlined: its 9 arrays are not passed at each call
+# no reference counting (see _event_loop); inlined wherever it is called (:func:`_event_loop`'s reschedule
+# loop, :func:`run_chunk`'s predictions after a synchronisation): its 11 arrays are not passed at each call
+@njit(cache=True, _nrt=False, inline="always")
 def _predict(i, t, P, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c):
     """Sync sphere ``i`` to ``t`` and schedule its next event (collision or shell exit).
 
@@ -988,11 +994,18 @@ def _event_loop(P, box, state, hist, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_
     counting every call incremented and decremented the counts of its array arguments
     with atomic instructions; ``perf`` put a third of the samples of a run of 10^4
     equal spheres to 0.62 on those two instructions (issue 33).  The arithmetic and the
-    order of events are unchanged (tests/test_golden.py).  :func:`_predict`,
-    :func:`_heap_update` and :func:`_sift_down` are inlined (``inline="always"``) at one
-    call site, the loop over the one or two spheres an event reschedules: a call passed
-    each array as about seven machine words on the stack, and ``perf`` put a fifth of the
-    loop's own samples on those pushes (issue 33; 7 % less time at N = 10^4).  The running scalars travel in ``fs = (t, w_vir, w_ke, t_last, ke)`` and ``ks = (coll,
+    order of events are unchanged (tests/test_golden.py).
+
+    :func:`_predict`, :func:`_heap_update` and :func:`_sift_down` are compiled with
+    ``inline="always"``; this function calls them at one site only, the loop over the one or
+    two spheres an event reschedules (``i``, then ``j`` after a collision), so their code is
+    compiled into it once: a call passed each array as about seven machine words on the stack,
+    and ``perf`` put a fifth of the loop's own samples on those pushes (issue 33; 7 % less time
+    at N = 10^4).  They are inlined at their other call sites too: :func:`_predict` in
+    :func:`run_chunk`, :func:`_sift_down` in the heap builders, :func:`_heap_update` at four
+    sites of the 2D engine (:mod:`polypack._kernels.edmd2d`, whose compile it lengthens).
+
+    The running scalars travel in ``fs = (t, w_vir, w_ke, t_last, ke)`` and ``ks = (coll,
     events, w_coll, since_sync, pad, n_hist, status)``.  Returns ``LOOP_STOP``,
     ``LOOP_SYNC`` or ``LOOP_REBUILD``.
     """
@@ -1147,8 +1160,8 @@ def run_chunk(x, v, g, box, state, params, hist):
     params : (N_PARAMS,) float64 (see :func:`make_params`)
         Slots ``P_T_STOP, P_MAX_COLLISIONS`` (this chunk), ``P_MAX_PRESSURE,
         P_PRESSURE_WINDOW, P_T_REF, P_ALPHA, P_MAX_EVENTS`` (this chunk),
-        ``P_SYNC_EVERY, P_DILUTE, P_MARGIN_CAP, P_SPEED`` (shell widths: :func:`shell_reach`, :func:`_shell_radius` with
-        ``g_margin = margin_cap * median(g)``; ``speed``, default 1, is the thermal
+        ``P_SYNC_EVERY, P_DILUTE, P_MARGIN_CAP, P_SPEED`` (shell widths: :func:`shell_reach`,
+        :func:`_shell_radius` with ``g_margin = margin_cap * median(g)``; ``speed``, default 1, is the thermal
         speed the velocities are rescaled to at each synchronisation: a speed ``s``
         makes the growth per distance travelled ``1/s`` times faster).
     hist : (H, 3) float64
