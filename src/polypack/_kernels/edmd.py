@@ -45,6 +45,7 @@ Data layout (flat arrays, C-like):
 from __future__ import annotations
 
 import math
+import types as pytypes
 
 from enum import IntEnum
 
@@ -241,11 +242,13 @@ def _sift_up(hk, hi, hpos, k):
     hpos[idx] = k
 
 
-# no reference counting (see _event_loop); inlined wherever it is called: in _heap_update (hence in the
-# event loop and at edmd2d's four _heap_update calls), _heap_build and _heap_build_order
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False)  # no reference counting (see _event_loop)
 def _sift_down(hk, hi, hpos, k, n):
-    """Move heap slot ``k`` towards the leaves (4-ary min-heap, keys stored inline)."""
+    """Move heap slot ``k`` towards the leaves (4-ary min-heap, keys stored inline).
+
+    A call (heap builders, :func:`_heap_update`, the 2D engine); the 3D event loop runs the same
+    code inlined (:func:`_sift_down_hot`, :func:`_inlined_copy`).
+    """
     key = hk[k]
     idx = hi[k]
     while True:
@@ -294,11 +297,10 @@ def _sift_down(hk, hi, hpos, k, n):
     hpos[idx] = k
 
 
-# no reference counting (see _event_loop); inlined wherever it is called: the event loop's reschedule loop
-# and the four calls in the event loop of polypack._kernels.edmd2d
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False)  # no reference counting (see _event_loop)
 def _heap_update(hk, hi, hpos, i, key, n):
-    """Set the key of sphere ``i`` and restore the heap order."""
+    """Set the key of sphere ``i`` and restore the heap order (a call: the 2D engine's;
+    the 3D event loop inlines :func:`_heap_update_hot`)."""
     k = hpos[i]
     old = hk[k]
     hk[k] = key
@@ -306,6 +308,33 @@ def _heap_update(hk, hi, hpos, i, key, n):
         _sift_up(hk, hi, hpos, k)
     else:
         _sift_down(hk, hi, hpos, k, n)
+
+
+def _inlined_copy(fn, name):
+    """The compiled function ``fn`` again, under ``name``, compiled into its callers (``inline="always"``,
+    no reference counting): the same source, hence the same arithmetic, for the one hot call site of
+    :func:`_event_loop`, while the other callers (heap builders, :func:`run_chunk`, the 2D engine) call
+    ``fn`` and do not compile its code once more (issue 33: compile time)."""
+    f = fn.py_func
+    g = pytypes.FunctionType(f.__code__, f.__globals__, name, f.__defaults__, f.__closure__)
+    g.__qualname__ = name  # its own entry in numba's cache
+    g.__doc__ = f":func:`{f.__name__}` inlined (:func:`_inlined_copy`)."
+    return njit(cache=True, _nrt=False, inline="always")(g)
+
+
+_sift_down_hot = _inlined_copy(_sift_down, "_sift_down_hot")
+
+
+@njit(cache=True, _nrt=False, inline="always")  # no reference counting (see _event_loop)
+def _heap_update_hot(hk, hi, hpos, i, key, n):
+    """:func:`_heap_update` with :func:`_sift_down` inlined: the event loop's reschedule site."""
+    k = hpos[i]
+    old = hk[k]
+    hk[k] = key
+    if key < old:
+        _sift_up(hk, hi, hpos, k)
+    else:
+        _sift_down_hot(hk, hi, hpos, k, n)
 
 
 @njit(cache=True)
@@ -526,15 +555,15 @@ def _prefetch_neighbours(i, P, off, nn, nbr):
         _prefetch_row(P, nbr[k])
 
 
-# no reference counting (see _event_loop); inlined wherever it is called (:func:`_event_loop`'s reschedule
-# loop, :func:`run_chunk`'s predictions after a synchronisation): its 11 arrays are not passed at each call
-@njit(cache=True, _nrt=False, inline="always")
+@njit(cache=True, _nrt=False)  # no reference counting (see _event_loop)
 def _predict(i, t, P, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c):
     """Sync sphere ``i`` to ``t`` and schedule its next event (collision or shell exit).
 
     ``P`` holds one 64-byte record per sphere (position, velocity, own time, growth
     speed: columns ``R_X..R_G``), so a neighbour costs one cache line, not four; the
-    neighbours' records are requested first (:func:`_prefetch_neighbours`).
+    neighbours' records are requested first (:func:`_prefetch_neighbours`).  A call from
+    :func:`run_chunk`; :func:`_event_loop` runs the same code inlined (:func:`_predict_hot`):
+    a call passes its 11 arrays on the stack.
     """
     _prefetch_neighbours(i, P, off, nn, nbr)
     base = off[i]
@@ -575,6 +604,9 @@ def _predict(i, t, P, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c):
         ev_c[i] = cnt[partner]
     else:
         ev_c[i] = 0
+
+
+_predict_hot = _inlined_copy(_predict, "_predict_hot")
 
 
 @njit(cache=True, _nrt=False)  # no reference counting (see _event_loop)
@@ -996,14 +1028,14 @@ def _event_loop(P, box, state, hist, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_
     equal spheres to 0.62 on those two instructions (issue 33).  The arithmetic and the
     order of events are unchanged (tests/test_golden.py).
 
-    :func:`_predict`, :func:`_heap_update` and :func:`_sift_down` are compiled with
-    ``inline="always"``; this function calls them at one site only, the loop over the one or
-    two spheres an event reschedules (``i``, then ``j`` after a collision), so their code is
-    compiled into it once: a call passed each array as about seven machine words on the stack,
-    and ``perf`` put a fifth of the loop's own samples on those pushes (issue 33; 7 % less time
-    at N = 10^4).  They are inlined at their other call sites too: :func:`_predict` in
-    :func:`run_chunk`, :func:`_sift_down` in the heap builders, :func:`_heap_update` at four
-    sites of the 2D engine (:mod:`polypack._kernels.edmd2d`, whose compile it lengthens).
+    :func:`_predict`, :func:`_heap_update` and :func:`_sift_down` are inlined here, and only
+    here (their copies :func:`_predict_hot`, :func:`_heap_update_hot`, :func:`_sift_down_hot`
+    with ``inline="always"``), at one site, the loop over the one or two spheres an event
+    reschedules (``i``, then ``j`` after a collision), so their code is compiled into it once:
+    a call passed each array as about seven machine words on the stack, and ``perf`` put a
+    fifth of the loop's own samples on those pushes (issue 33; 7 % less time at N = 10^4).
+    Their other callers (:func:`run_chunk`, the heap builders, the 2D engine
+    :mod:`polypack._kernels.edmd2d`) call the plain versions.
 
     The running scalars travel in ``fs = (t, w_vir, w_ke, t_last, ke)`` and ``ks = (coll,
     events, w_coll, since_sync, pad, n_hist, status)``.  Returns ``LOOP_STOP``,
@@ -1105,8 +1137,8 @@ def _event_loop(P, box, state, hist, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_
         # _heap_update are compiled once
         q = i
         for r in range(2):
-            _predict(q, t, P, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
-            _heap_update(hk, hi, hpos, q, ev_t[q], n)
+            _predict_hot(q, t, P, box, off, nn, nbr, xb, rho, cnt, ev_t, ev_p, ev_c)
+            _heap_update_hot(hk, hi, hpos, q, ev_t[q], n)
             if q2 < 0 or r == 1:
                 break
             q = q2
