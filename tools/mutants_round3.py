@@ -164,7 +164,8 @@ ROUND3 = [
            "                    s_cap = s_lo + k * ds  # one interval of margin",
            T_BDK, "off-by-two (the last intervals where the drift cap can bind skip it)"),
     # equivalent in effect (5 Dec): the swap loses at most one interval of the conservative test, and s_cap
-    # keeps one interval of margin beyond the last flagged one (survived the dense-grid test, as expected)
+    # keeps one interval of margin beyond the last flagged one (survived the dense-grid test, and the review
+    # fix's test of the loop against the exact cap at every pair up to the cutoff, 07:10 UTC)
     Mutant("r3-32-r2-cap-inner-end", K + "bd.py",
            "                if att * r1 >= cap_drift * max(r0 - 2.0, 0.0) / (2.0 * dt):",
            "                if att * r0 >= cap_drift * max(r1 - 2.0, 0.0) / (2.0 * dt):",
