@@ -30,6 +30,7 @@ import sys
 import tempfile
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 
@@ -218,7 +219,8 @@ def main(argv=None):
     ap.add_argument("--sliding-stiffness", type=float, default=None,
                     help="tangential bonds: sliding stiffness in kT/a² (default: the numerical one)")
     ap.add_argument("--psi-list", default="0,12,13,14,15", help="Ψ0 values (mV) of --only series")
-    ap.add_argument("--output", default="bench_brownian.json")
+    ap.add_argument("--output", default="bench_brownian.json",
+                    help="file name, relative to benchmarks/results/ (an absolute path is kept)")
     args = ap.parse_args(argv)
     parts = args.only or ["rate", "gel", "series"]
     os.environ.setdefault("OMP_NUM_THREADS", "1")
@@ -254,8 +256,13 @@ def main(argv=None):
                   f"percolating={g['percolating']}, stable={g['converged']}, "
                   f"t={g['simulated_time_tau']:.1f} a²/D0, {g['cpu']:.0f} CPU s", flush=True)
         out["series"] = rows
-    with open(args.output, "w") as fh:
+    path = Path(__file__).resolve().parent / "results" / args.output  # as bench_pack.py: never the cwd
+    path.parent.mkdir(exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    with open(tmp, "w") as fh:
         json.dump(out, fh, indent=1)
+    os.replace(tmp, path)  # atomic: an interrupted run leaves the previous file
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":
