@@ -303,6 +303,8 @@ def test_two_sets_run_end_to_end_through_the_cli(tmp_path):
 def test_bundled_seed_study_makes_both_sets():
     """examples/heterogeneity_seed.toml is the whole seed-size study: VEM at the six N_V/N of Table 2 and
     BD at its five Ψ0 (volts), N = 8000, P = 3, one dynamic value per set, the heterogeneity report."""
+    from polypack.mechanics.stages import _tensor_key
+
     sw, entries, name = sweep_plan(ROOT / "examples" / "heterogeneity_seed.toml")
     assert sw["report"] == "heterogeneity" and [s["name"] for s in sw["sets"]] == ["vem", "bd"]
     vem = [e for e in entries if e.set == "vem"]
@@ -318,6 +320,15 @@ def test_bundled_seed_study_makes_both_sets():
         assert {"pores", "contacts", "elastic"} <= set(d["analysis"])
         assert d["analysis"]["elastic"]["bonds"] == "distance"  # the seed's ε rule for both sets
         assert ("shear" in d["analysis"]) == e.dynamic
+        if "rigidity" in d["analysis"]:  # same bond options: the elastic stage's tensor is reused, not recomputed
+            assert _tensor_key(d["analysis"]["rigidity"]) == _tensor_key(d["analysis"]["elastic"])
+    # the BD set's bond model is the reduced joint study's model A (docs/brownian.md, fifth pass)
+    _, reduced, _ = sweep_plan(ROOT / "examples" / "heterogeneity_reduced.toml")
+    model_a = next(e for e in reduced if e.set == "bd").study.data["protocol"]
+    for e in bd:
+        got = dict(e.study.data["protocol"])
+        assert got.pop("surface_potential") == e.value
+        assert got == {k: v for k, v in model_a.items() if k != "surface_potential"}
 
 
 def test_bundled_reduced_joint_study_checks(capsys):
