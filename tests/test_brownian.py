@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 import polypack as pp
+from polypack.analysis._base import OVERLAP_TOLERANCE as HARD_SPHERE_TOLERANCE  # the estimators' overlap check
 from polypack.errors import InvalidInputError
 from polypack.generate import brownian as bdmod
 from polypack.generate.dlvo import dlvo_parameters
@@ -136,7 +137,7 @@ def test_gel_bonds_series_and_no_overlap():
     assert pk.n == 300 and np.allclose(pk.radii, a)
     L = a * (4 * 300 * math.pi / (3 * 0.4)) ** (1 / 3)  # Eq. (5) of seed 003
     assert np.allclose(pk.box, L)
-    assert pk.min_gap() >= -bdmod.OVERLAP_TOLERANCE
+    assert pk.min_gap() >= -HARD_SPHERE_TOLERANCE  # finished gels read as hard-sphere packs
     i, j, shift = pp.generate.brownian_bonds(pk)
     assert i.size == b["n_bonds"] > 300
     branch = pk.positions[j] + shift * pk.box - pk.positions[i]
@@ -265,7 +266,7 @@ def test_coagulated_gels_percolate_and_doh_rises_with_surface_potential():
             assert b["converged"]
             assert b["clusters"] == 1 and b["largest_cluster"] == pk.n
             assert all(b["percolating"]), (psi, seed, b["percolating"])
-            assert pk.min_gap() >= -bdmod.OVERLAP_TOLERANCE
+            assert pk.min_gap() >= -HARD_SPHERE_TOLERANCE  # finished gels read as hard-sphere packs
             ps = pp.analysis.PoreSizes(n_points=100000, seed=1)
             ps.compute(pk)
             a_doh[psi].append(ps.fit["seed"]["a"])

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 import polypack as pp
+from polypack.analysis._base import OVERLAP_TOLERANCE as HARD_SPHERE_TOLERANCE  # the estimators' overlap check
 from polypack.errors import InvalidInputError
 from polypack.generate import brownian as bdmod
 from polypack.generate.brownian import BrownianSimulation, bond_escape_time
@@ -114,7 +115,7 @@ def test_breaking_is_a_poisson_process_at_rate_one_over_tau(hc, t):
     assert expected > (30 if hc == H4 else 1500)
     assert abs(rec["bonds_broken"] - expected) < 4 * math.sqrt(expected) + 0.03 * expected, rec
     assert rec["exit_separation"] == pytest.approx(dlvo_extrema(0.015, minimum_separation=hc).barrier_separation)
-    assert pk.min_gap() >= -bdmod.OVERLAP_TOLERANCE
+    assert pk.min_gap() >= -HARD_SPHERE_TOLERANCE
 
 
 @pytest.mark.slow

@@ -163,9 +163,12 @@ MAX_STEP_FRACTION = 0.5
 RIGID_OVERLAP_TOLERANCE = 1e-10
 #: Default rms step per coordinate in Debye lengths.
 DEFAULT_STEP_FRACTION = 0.2
-#: Largest relative overlap ``1 - d_ij / (2a)`` tolerated in a returned gel (the final
-#: overlap removal stops when no correction exceeds this many radii).
+#: Largest relative overlap ``1 - d_ij / (2a)`` tolerated in a returned gel (checked before it is returned).
 OVERLAP_TOLERANCE = 1e-6
+#: The final overlap removal stops when no correction exceeds this many radii: far below the
+#: estimators' 1e-9 (``polypack.analysis._base.OVERLAP_TOLERANCE``), so a finished gel reads as a
+#: hard-sphere pack (at 1e-6 the N = 8000 gels kept overlaps of 2-3e-8 and every estimator warned).
+FINAL_OVERLAP_TOLERANCE = 1e-10
 
 
 def relative_mobility(h, radius=None, lubrication_range=None):
@@ -679,9 +682,9 @@ class BrownianSimulation:
         if self.bond_width is None:
             return 0.0
         if self.bond_model == "rigid":  # bonds never stretch; one overlap removal and capture pass
-            return self._sweep(max_sweeps, False, tolerance=OVERLAP_TOLERANCE)
+            return self._sweep(max_sweeps, False, tolerance=FINAL_OVERLAP_TOLERANCE)
         self._sweep(max_sweeps, False)
-        return self._sweep(20 * max_sweeps, True, tolerance=OVERLAP_TOLERANCE)
+        return self._sweep(20 * max_sweeps, True, tolerance=FINAL_OVERLAP_TOLERANCE)
 
     def bond_gaps(self) -> np.ndarray:
         """Surface separations (m) of the bonded pairs (minimum image)."""
