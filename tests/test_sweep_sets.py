@@ -585,3 +585,25 @@ def test_the_shear_tasks_go_first_and_a_failure_is_raised_after_all(tmp_path, mo
     assert [c[:2] for c in ex.calls[2:5]] == [("two-vem-void_ratio=0.25", 1), ("two-vem-void_ratio=0.25", 2),
                                                ("two-vem-void_ratio=1", 0)]
     assert not list((tmp_path / "o").glob("*/*/realizations/r*.json"))
+
+
+def test_figure_colours_tell_every_set_apart():
+    """Fig. 2 / Fig. 6 of the seed-size study have eleven sets (six VEM, five BD): one colour cycle of ten
+    would give the first VEM value and the last BD value the same colour. Each protocol kind gets one colour
+    family (VEM blues, BD oranges), shaded along its values; other kinds (included runs) their own."""
+    from matplotlib.colors import rgb_to_hsv
+
+    from polypack.studies.seed003_heterogeneity import _set_colours
+
+    sets = [f"VEM {v}" for v in range(6)] + [f"BD {v}" for v in range(5)] + ["SCRM", "deposit"]
+    kinds = {s: ("vem" if s.startswith("VEM") else "brownian" if s.startswith("BD") else s.lower()) for s in sets}
+    col = _set_colours(sets, kinds)
+    assert set(col) == set(sets)
+    rgb = {s: tuple(round(x, 6) for x in col[s][:3]) for s in sets}
+    assert len(set(rgb.values())) == len(sets)  # no two sets share a colour
+    hue = {s: rgb_to_hsv(rgb[s])[0] for s in sets}
+    blue, orange = [hue[s] for s in sets[:6]], [hue[s] for s in sets[6:11]]
+    assert all(0.5 < h < 0.7 for h in blue) and all(0.0 < h < 0.12 for h in orange)  # one family per kind
+    value = {s: rgb_to_hsv(rgb[s])[2] for s in sets}
+    assert all(value[a] >= value[b] for a, b in zip(sets[:5], sets[1:6]))  # light to dark along the values
+    assert len({rgb["SCRM"], rgb["deposit"]} | set(rgb[s] for s in sets[:11])) == len(sets)

@@ -61,9 +61,12 @@ SEED_TABLE2 = {
            (14.0, 0.472, 5.08, 1.46, 0.120), (15.0, 0.536, 4.97, 1.62, 0.213)],
 }
 
+#: The seed's particle normal stiffness kn (N/m) of Table 2 (Table 1 of 003_873b69fc71c74cf6.txt).
+SEED_KN = 100.0
+
 #: ``[sweep.elastic]`` defaults of the report's own static tensor (Table 1 of the seed).
 #: ``stiffness``: "contact" (per contact, polypack's default) or "particle" (per ball, in series).
-ELASTIC_DEFAULTS = {"epsilon": 0.01, "normal_stiffness": 100.0, "shear_stiffness": 10.0, "stiffness": "contact"}
+ELASTIC_DEFAULTS = {"epsilon": 0.01, "normal_stiffness": SEED_KN, "shear_stiffness": SEED_KN / 10, "stiffness": "contact"}
 
 
 #: Normal stiffnesses (N/m) of Fig. 5 of 003_873b69fc71c74cf6.txt (the seed calibrates kn between 50 and
@@ -372,9 +375,10 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
         lines.append(f"| {r['set']} | {r['value']} | {r['realizations']} | {a_cell} | "
                      f"{r['b']:.3f} | {r['C']:.2f} | {_g_cell(r)} | {_g_dyn_cell(r)} | {sa} |")
     lines.append("")
+    per = " and per ".join(sorted(semantics))
+    stiff = f"kn = {elastic['normal_stiffness']:g} N/m, ks = {elastic['shear_stiffness']:g} N/m"
     lines.append(f"G'p source: {', '.join(sorted(sources))}; bonds at epsilon = {elastic['epsilon']:g}, "
-                 f"kn = {elastic['normal_stiffness']:g} N/m, ks = {elastic['shear_stiffness']:g} N/m; "
-                 f"stiffnesses per {' and per '.join(sorted(semantics))} (particle: per ball, in series per "
+                 f"{stiff}; stiffnesses per {per} (particle: per ball, in series per "
                  "contact, k/2 for equal balls; Table 1 of 003_873b69fc71c74cf6.txt).")
     if fit is not None:
         lines.append(f"Eq. (7) of 003_873b69fc71c74cf6.txt: a0 = {fit.a0:.4f} ± {fit.a0_err:.4f}, "
@@ -393,7 +397,7 @@ def heterogeneity_report(out, sets, *, parameter="protocol.void_ratio", include=
                                          "points": points, "rows": rows, "g_source": sorted(sources),
                                          "elastic": elastic, "fig5": fig5, "units": "MPa"}, indent=1))
     files["fit"] = rep / "fit.json"
-    files.update(_plots(rep, points, fit, fmt))
+    files.update(_plots(rep, points, fit, fmt, stiffness=f"{stiff} per {per}"))
     if fig5 is not None and fig5.get("ratio") is not None:
         files["fig5"] = _plot_fig5(rep, fig5, fmt)
     return files
@@ -528,7 +532,31 @@ def _g_cell(row):
     return cell + (f" ({row['floppy']} of {row['realizations']} floppy)" if row["floppy"] else "")
 
 
-def _plots(rep, points, fit, fmt):
+#: One colour family per protocol kind, shaded along the set's values (seed Fig. 6 tells the two
+#: generators apart by marker; with eleven values one colour cycle would repeat).
+_KIND_CMAPS = {"vem": "Blues", "brownian": "Oranges"}
+_OTHER_CMAPS = ("Greens", "Purples", "Greys")
+
+
+def _set_colours(sets, kinds):
+    """``{set: RGBA}``: the sets of one protocol kind (``kinds[set]``) in shades of one colour map
+    (VEM blues, Brownian dynamics oranges, others greens, purples, greys), light to dark in report
+    order, so no two sets of a figure share a colour."""
+    from matplotlib import colormaps
+
+    groups = {}
+    for s in sets:
+        groups.setdefault(kinds.get(s), []).append(s)
+    others = iter(_OTHER_CMAPS * len(groups))
+    out = {}
+    for kind, members in groups.items():
+        cmap = colormaps[_KIND_CMAPS.get(kind) or next(others)]
+        for i, s in enumerate(members):
+            out[s] = cmap(0.45 + 0.5 * i / max(len(members) - 1, 1))
+    return out
+
+
+def _plots(rep, points, fit, fmt, stiffness=""):
     import matplotlib
 
     matplotlib.use("Agg")
@@ -542,12 +570,13 @@ def _plots(rep, points, fit, fmt):
         order.setdefault(p["set"], p.get("kind"))  # circles VEM, triangles BD)
     sets = list(order)
     marker = {"vem": "o", "brownian": "^"}
+    colour = _set_colours(sets, order)
     # Fig. 2: C against a
     fig, ax = plt.subplots(figsize=(5, 4))
     for s in sets:
         pa = [p["a"] for p in points if p["set"] == s]
         pc = [p["C"] for p in points if p["set"] == s]
-        ax.plot(pa, pc, marker.get(order[s], "D"), ms=4, label=f"{s} (this run)")
+        ax.plot(pa, pc, marker.get(order[s], "D"), ms=4, color=colour[s], label=f"{s} (this run)")
     for key, mk, lab in (("vem", "s", "seed VEM (Table 2, N = 8000)"), ("bd", "^", "seed BD (Table 2)")):
         ax.plot([x[1] for x in SEED_TABLE2[key]], [x[2] for x in SEED_TABLE2[key]], mk, mfc="none", color="k",
                 label=lab)
@@ -565,7 +594,7 @@ def _plots(rep, points, fit, fmt):
     for s in sets:
         sel = [p for p in points if p["set"] == s]
         eb = ax.errorbar([p["a"] for p in sel], [p["G_Pa"] * 1e-6 for p in sel], yerr=[p["G_sd_Pa"] * 1e-6 for p in sel],
-                         fmt=marker.get(order[s], "D"), ms=4, capsize=2, label=f"{s} (this run)")
+                         fmt=marker.get(order[s], "D"), ms=4, capsize=2, color=colour[s], label=f"{s} (this run)")
         dyn = [p for p in sel if p.get("G_dyn_Pa") is not None]
         if dyn:  # the dynamic G'p (oscillatory shear) beside the static one, same colour, open symbol
             ax.errorbar([p["a"] for p in dyn], [p["G_dyn_Pa"] * 1e-6 for p in dyn],
@@ -578,16 +607,16 @@ def _plots(rep, points, fit, fmt):
     lo, hi = min(a_all) - 0.03, max(a_all) + 0.03
     if fit is not None and math.isfinite(fit.a0):
         xs = np.linspace(max(fit.a0, lo), hi, 300)
-        ax.plot(xs, fit(xs), "-", color="C3", label=f"power-law fit (seed eq. 7): a0 = {fit.a0:.3g} ± {fit.a0_err:.2g}, "
+        ax.plot(xs, fit(xs), "-", color="tab:red", label=f"power-law fit (seed eq. 7): a0 = {fit.a0:.3g} ± {fit.a0_err:.2g}, "
                 f"β = {fit.beta:.3g} ± {fit.beta_err:.2g}" + ("" if fit.a0_determined else " (a0 not determined)"))
         if lo <= fit.a0 <= hi:
-            ax.axvline(fit.a0, ls="--", color="C3", lw=0.8, label="critical DOH a0 (fit)")
+            ax.axvline(fit.a0, ls="--", color="tab:red", lw=0.8, label="critical DOH a0 (fit)")
     ax.axvline(0.373, ls=":", color="k", lw=0.8, label="seed a0 = 0.373")
     ax.set_xlim(lo, hi)
     ax.set_ylim(bottom=0.0)
     ax.set_xlabel("DOH parameter a (Eq. 6), dimensionless")
     ax.set_ylabel("plateau storage modulus G'p (MPa)")
-    ax.set_title("seed 003 Fig. 6: G'p against DOH (r0 = 0.25 µm, kn = 100 N/m);\n"
+    ax.set_title("seed 003 Fig. 6: G'p against DOH" + (f" ({stiffness})" if stiffness else "") + ";\n"
                  "bars: spread over the shear directions", fontsize=8)
     ax.legend(fontsize=6, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2)
     fig.tight_layout()
@@ -613,6 +642,10 @@ def _plot_fig5(rep, fig5, fmt):
         d = fig5[name]
         ax.plot(kn, np.asarray(d["G_Pa"]) * 1e-6, mk + "-", ms=5,
                 label=f"{words}: {d['set']}, realization {d['index']} (a = {d['a']:.3f})")
+    for row, mk, words in ((SEED_TABLE2["bd"][-1], "s", "seed, most heterogeneous"),
+                           (SEED_TABLE2["bd"][0], "o", "seed, least heterogeneous")):  # Table 2 at the seed's kn
+        ax.errorbar([SEED_KN], [row[3]], yerr=[row[4]], fmt=mk, mfc="none", color="k", capsize=2,
+                    label=f"{words}: BD Ψ0 = {row[0]:g} mV (a = {row[1]:.3f}), Table 2")
     per = "per particle, in series" if fig5["he"]["settings"].get("stiffness") == "particle" else "per contact"
     ax.set_xlabel(f"normal stiffness kn (N/m, {per}); ks = kn × {fig5['he']['ks_over_kn']:.3g}")
     ax.set_ylabel("plateau storage modulus G'p (MPa), static")
