@@ -143,11 +143,12 @@ def power_law_fit(a, g, sigma=None) -> PowerLawFit:
     PowerLawFit
         ``a0, beta, prefactor`` with standard errors, covariance (of ``a0, β, A``), χ²,
         ``a0_determined`` and ``note`` (why not), and the fit without the lowest point.
-        ``a0`` counts as determined when its 1-sigma interval stays below the smallest ``a``
-        and, with five or more points, the fit without the lowest point still determines it
-        (otherwise the threshold is held up by that one point). With ``sigma``, ``note``
-        also says when the law misses the points by more than their error bars (chi-squared
-        survival probability below 1e-3).
+        ``a0`` counts as determined when its 1-sigma interval stays below the smallest ``a``.
+        With ``sigma``, ``note`` also says when the law misses the points by more than their
+        error bars (chi-squared survival probability below 1e-3); such a fit whose a0 the data
+        without the lowest point do not determine (five or more points) has ``a0`` held up by
+        that one point and is reported as not determined. On a good fit that refit is only
+        noted (dropping the lowest point always widens a0's interval).
 
     Raises
     ------
@@ -209,15 +210,25 @@ def power_law_fit(a, g, sigma=None) -> PowerLawFit:
         out.a0_without_lowest = amin2 - d2
         var = c2[2, 2] * d2 * d2
         out.a0_without_lowest_err = float(math.sqrt(var)) if np.isfinite(var) and var >= 0 else float("inf")
-        e2 = out.a0_without_lowest_err
-        if determined and keep.size > 3 and not (math.isfinite(e2) and out.a0_without_lowest + e2 < amin2):
-            out.a0_determined = False  # a threshold that only the lowest point holds up
-            out.note = (f"a0 rests on the lowest point (a = {a_min:.4g}): without it the data do not determine a0 "
-                        f"(a0' = {out.a0_without_lowest:.4g} ± {e2:.2g})")
+    misfit = False
     if absolute and dof > 0:
         from scipy.stats import chi2 as chi2_dist
 
-        if chi2_dist.sf(chi2, dof) < 1e-3:  # the bars are the data's own: the law misses the points
-            out.note += (f"; the power law misses the points by more than their error bars "
-                         f"(chi2 = {chi2:.4g} for {dof} dof)")
+        misfit = bool(chi2_dist.sf(chi2, dof) < 1e-3)  # the bars are the data's own: the law misses the points
+    if determined and a.size >= 5:
+        e2 = out.a0_without_lowest_err
+        if not (math.isfinite(e2) and out.a0_without_lowest + e2 < float(np.sort(a)[1])):
+            # Dropping the lowest point always widens a0's interval (that point carries most of what the
+            # data say about a0), so on a good fit this is only a remark; on a fit that misses its points
+            # a0 is a threshold that one point holds up, not a property of the data.
+            lean = f"without the lowest point (a = {a_min:.4g}) the data do not determine a0 " \
+                   f"(a0' = {out.a0_without_lowest:.4g} ± {e2:.2g})"
+            if misfit:
+                out.a0_determined = False
+                out.note = "a0 rests on the lowest point: " + lean
+            else:
+                out.note += "; " + lean
+    if misfit:
+        out.note += (f"; the power law misses the points by more than their error bars "
+                     f"(chi2 = {chi2:.4g} for {dof} dof)")
     return out

@@ -535,7 +535,7 @@ def _g_cell(row):
 #: One colour family per protocol kind, shaded along the set's values (seed Fig. 6 tells the two
 #: generators apart by marker; with eleven values one colour cycle would repeat).
 _KIND_CMAPS = {"vem": "Blues", "brownian": "Oranges"}
-_OTHER_CMAPS = ("Greens", "Purples", "Greys")
+_OTHER_CMAPS = ("Greens", "Purples", "Greys", "RdPu", "BuGn", "YlOrBr", "PuBu", "Reds")
 
 
 def _set_colours(sets, kinds):
@@ -642,11 +642,13 @@ def _plot_fig5(rep, fig5, fmt):
         d = fig5[name]
         ax.plot(kn, np.asarray(d["G_Pa"]) * 1e-6, mk + "-", ms=5,
                 label=f"{words}: {d['set']}, realization {d['index']} (a = {d['a']:.3f})")
+    particle = fig5["he"]["settings"].get("stiffness") == "particle"
+    seed_kn = SEED_KN if particle else SEED_KN / 2  # Table 1's kn is per ball: in series, half per contact
     for row, mk, words in ((SEED_TABLE2["bd"][-1], "s", "seed, most heterogeneous"),
                            (SEED_TABLE2["bd"][0], "o", "seed, least heterogeneous")):  # Table 2 at the seed's kn
-        ax.errorbar([SEED_KN], [row[3]], yerr=[row[4]], fmt=mk, mfc="none", color="k", capsize=2,
+        ax.errorbar([seed_kn], [row[3]], yerr=[row[4]], fmt=mk, mfc="none", color="k", capsize=2,
                     label=f"{words}: BD Ψ0 = {row[0]:g} mV (a = {row[1]:.3f}), Table 2")
-    per = "per particle, in series" if fig5["he"]["settings"].get("stiffness") == "particle" else "per contact"
+    per = "per particle, in series" if particle else "per contact"
     ax.set_xlabel(f"normal stiffness kn (N/m, {per}); ks = kn × {fig5['he']['ks_over_kn']:.3g}")
     ax.set_ylabel("plateau storage modulus G'p (MPa), static")
     r = fig5["ratio"]
