@@ -310,31 +310,23 @@ def _heap_update(hk, hi, hpos, i, key, n):
         _sift_down(hk, hi, hpos, k, n)
 
 
-def _inlined_copy(fn, name):
+def _inlined_copy(fn, name, **callees):
     """The compiled function ``fn`` again, under ``name``, compiled into its callers (``inline="always"``,
     no reference counting): the same source, hence the same arithmetic, for the one hot call site of
     :func:`_event_loop`, while the other callers (heap builders, :func:`run_chunk`, the 2D engine) call
-    ``fn`` and do not compile its code once more (issue 33: compile time)."""
+    ``fn`` and do not compile its code once more (issue 33: compile time). ``callees`` (global name ->
+    function) replace the functions the copy calls, e.g. with their own inlined copies."""
     f = fn.py_func
-    g = pytypes.FunctionType(f.__code__, f.__globals__, name, f.__defaults__, f.__closure__)
+    env = dict(f.__globals__, **callees) if callees else f.__globals__
+    g = pytypes.FunctionType(f.__code__, env, name, f.__defaults__, f.__closure__)
     g.__qualname__ = name  # its own entry in numba's cache
     g.__doc__ = f":func:`{f.__name__}` inlined (:func:`_inlined_copy`)."
     return njit(cache=True, _nrt=False, inline="always")(g)
 
 
 _sift_down_hot = _inlined_copy(_sift_down, "_sift_down_hot")
-
-
-@njit(cache=True, _nrt=False, inline="always")  # no reference counting (see _event_loop)
-def _heap_update_hot(hk, hi, hpos, i, key, n):
-    """:func:`_heap_update` with :func:`_sift_down` inlined: the event loop's reschedule site."""
-    k = hpos[i]
-    old = hk[k]
-    hk[k] = key
-    if key < old:
-        _sift_up(hk, hi, hpos, k)
-    else:
-        _sift_down_hot(hk, hi, hpos, k, n)
+# the event loop's reschedule site: _heap_update inlined, calling the inlined sift-down
+_heap_update_hot = _inlined_copy(_heap_update, "_heap_update_hot", _sift_down=_sift_down_hot)
 
 
 @njit(cache=True)
